@@ -1,0 +1,18 @@
+"""Test-wide setup: an isolated ROS domain per test session and our DDS profile."""
+from __future__ import annotations
+
+import os
+
+import pytest
+
+# Each pytest session gets its own DDS domain so that concurrent runs on one machine (other
+# developers, CI) never see each other's nodes and topics.
+os.environ.setdefault('ROS_DOMAIN_ID', str(20 + os.getpid() % 180))
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line('markers', 'slow: takes more than a few seconds')
+    config.addinivalue_line('markers', 'ros: needs the built workspace (source .ws/env.sh)')
+    from hand_tracker_ros.ros_env import apply_ros_defaults
+    apply_ros_defaults()

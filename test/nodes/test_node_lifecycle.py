@@ -1,0 +1,47 @@
+"""Every node starts, shows up in the ROS graph, and exits 0 on SIGINT or SIGTERM."""
+from __future__ import annotations
+
+import signal
+import subprocess
+
+import pytest
+
+from hand_tracker_ros.ament import executable
+from hand_tracker_ros.cli.launch import NODES, graph_specs
+from hand_tracker_ros.launcher import ProcessGroup
+
+pytestmark = pytest.mark.ros
+
+
+def test_graph_comes_up_and_stops_cleanly_on_sigint() -> None:
+    from hand_tracker_ros.ros_io.graph import wait_for_nodes
+
+    group = ProcessGroup(graph_specs(), output=open('/dev/null', 'w'))
+    group.start()
+    try:
+        seen = wait_for_nodes(NODES, timeout_s=60.0)
+    finally:
+        codes = group.stop()
+    assert seen == set(NODES)
+    assert codes == dict.fromkeys(NODES, 0)
+
+
+def test_node_exits_cleanly_on_sigterm() -> None:
+    from hand_tracker_ros.ros_io.graph import wait_for_nodes
+
+    proc = subprocess.Popen([str(executable('tracker')), '--ros-args', '-r', '__node:=tracker'],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        assert wait_for_nodes(['tracker'], timeout_s=60.0) == {'tracker'}
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=30)
+    assert proc.returncode == 0, out
+    assert 'Traceback' not in out
+
+
+def test_bad_parameter_is_a_clear_startup_error() -> None:
+    proc = subprocess.run([str(executable('tracker')), '--ros-args', '-p', 'sync_slop_ms:=-5.0'],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode != 0
+    assert 'sync_slop_ms' in proc.stdout + proc.stderr

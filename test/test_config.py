@@ -1,0 +1,68 @@
+"""Config dataclasses: mapping round trips, validation messages, shipped YAML files."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pytest
+import yaml
+
+from hand_tracker_ros import node_config
+from hand_tracker_ros.ament import share_file
+from hand_tracker_ros.config import describe, flatten, from_mapping, nested, param
+from hand_tracker_ros.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Inner:
+    max_iterations: int = param(10, 'LM iterations', low=1, high=100)
+    method: str = param('dis', 'flow method', choices=('dis', 'lk'))
+
+
+@dataclass(frozen=True)
+class Outer:
+    weight: float = param(1.0, 'term weight', low=0.0)
+    names: tuple[str, ...] = param(('a', 'b'), 'names')
+    lm: Inner = nested(Inner)
+
+
+def test_dotted_and_nested_mappings_agree() -> None:
+    a = from_mapping(Outer, {'lm.max_iterations': 5, 'weight': 2})
+    b = from_mapping(Outer, {'lm': {'max_iterations': 5}, 'weight': 2.0})
+    assert a == b
+    assert a.weight == 2.0 and isinstance(a.weight, float)
+    assert flatten(a) == {'weight': 2.0, 'names': ('a', 'b'), 'lm.max_iterations': 5,
+                          'lm.method': 'dis'}
+
+
+@pytest.mark.parametrize(('mapping', 'message'), [
+    ({'lm.max_iterations': 0}, r'`lm.max_iterations` must be in \[1, 100\], got 0'),
+    ({'lm.method': 'farneback'}, r"`lm.method` must be one of \['dis', 'lk'\]"),
+    ({'weight': 'heavy'}, r'`weight` must be a number'),
+    ({'lm.max_iterations': 2.5}, r'`lm.max_iterations` must be an integer'),
+    ({'names': 'abc'}, r'`names` must be a list'),
+    ({'wieght': 1.0}, r'unknown parameter\(s\) wieght'),
+    ({'weight': float('nan')}, r'`weight` must be a finite number'),
+])
+def test_bad_values_name_the_field(mapping: dict, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        from_mapping(Outer, mapping)
+
+
+def test_describe_carries_docs_and_ranges() -> None:
+    meta = describe(Outer)
+    assert meta['lm.max_iterations']['low'] == 1
+    assert meta['weight']['doc'] == 'term weight'
+
+
+@pytest.mark.parametrize(('node', 'cls'), [
+    ('tracker', node_config.TrackerNodeConfig),
+    ('features', node_config.FeaturesNodeConfig),
+    ('salient_points', node_config.SalientPointsNodeConfig),
+    ('player', node_config.PlayerNodeConfig),
+    ('recorder', node_config.RecorderNodeConfig),
+])
+def test_shipped_parameter_files_match_the_config_classes(node: str, cls: type) -> None:
+    data = yaml.safe_load(share_file(f'config/{node}.yaml').read_text())
+    params = data[node]['ros__parameters']
+    assert set(params) == set(flatten(cls()))
+    assert from_mapping(cls, params) == cls()

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Set everything up (idempotent) and run the test suite. Extra arguments go to pytest.
+set -euo pipefail
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+bash "$ROOT/tools/setup.sh"
+# shellcheck disable=SC1091
+. "$ROOT/.ws/env.sh"
+cd "$ROOT"
+exec python -m pytest "$@"
