@@ -1,0 +1,38 @@
+"""The protocol every energy term follows (house rule 6).
+
+An energy term maps the posed hand and the observations of one frame to residuals ``r (M,)``
+and their analytic Jacobian ``J = dr/dtheta (M, P)``. Terms are stateless: everything a term
+needs from the data (edge matches, flow targets, the fingertip assignment, colliding triangle
+pairs, ...) is found once per *correspondence round* by :meth:`Energy.correspond` and returned
+as an immutable value, which is then held fixed for the Levenberg-Marquardt call of that round,
+so trial steps keep the residual count ``M`` constant. The problem stacks
+``sqrt(weight) * r`` of every enabled term; the order of terms never matters.
+
+Cost convention: a term's cost is ``0.5 * weight * |r|^2``.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Protocol
+
+if TYPE_CHECKING:
+    from hand_tracker_ros._typing import FloatArray
+
+
+class Energy(Protocol):
+    """One energy term: correspondences per round, residuals and analytic Jacobian per step."""
+
+    name: str
+
+    def correspond(self, context: Any) -> Any:
+        """Find this term's correspondences for one round.
+
+        ``context`` carries the posed hand at the start of the round, the per-camera model
+        views (render, visibility, contours) and the frame's observations. The returned value
+        is immutable and fixes the residual count for the round.
+        """
+
+    def residuals(self, posed: Any, correspondences: Any) -> FloatArray:
+        """Residuals ``r (M,)`` of the posed hand for fixed correspondences."""
+
+    def linearize(self, posed: Any, correspondences: Any) -> tuple[FloatArray, FloatArray]:
+        """Residuals ``r (M,)`` and analytic Jacobian ``dr/dtheta (M, P)``."""
