@@ -16,3 +16,11 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line('markers', 'ros: needs the built workspace (source .ws/env.sh)')
     from hand_tracker_ros.ros_env import apply_ros_defaults
     apply_ros_defaults()
+
+
+@pytest.fixture(scope='session')
+def hand_model():
+    """The default hand model, built once per session."""
+    from hand_tracker_ros.model.hand import HandModel
+
+    return HandModel.build()

@@ -1,0 +1,89 @@
+"""Write a synthetic sequence as a rosbag2 (mcap by default) plus its rig YAML.
+
+Layout of ``out_dir``: ``bag/`` (the rosbag2) and ``rig.yaml`` beside it. Topics:
+
+==================================  ==============================  ==========
+topic                               type                            QoS
+==================================  ==============================  ==========
+``/camK/image_raw``                 sensor_msgs/msg/Image (rgb8)    sensor data
+``/camK/camera_info``               sensor_msgs/msg/CameraInfo      reliable
+``/hand/ground_truth/joint_states`` sensor_msgs/msg/JointState      reliable
+``/hand/ground_truth/state``        hand_tracker_msgs/msg/HandState reliable
+==================================  ==============================  ==========
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues, camera_info_msg,
+                                           hand_state_msg, image_msg, joint_state_msg)
+from hand_tracker_ros.bags.writer import BagWriter
+from hand_tracker_ros.errors import ConfigError
+from hand_tracker_ros.model.layout import PARAM_NAMES
+from hand_tracker_ros.model.shape import SHAPE_NAMES
+from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
+from hand_tracker_ros.synthetic.sequence import SyntheticFrame, SyntheticSequence
+
+GT_JOINTS_TOPIC = '/hand/ground_truth/joint_states'
+GT_STATE_TOPIC = '/hand/ground_truth/state'
+STATUS_TRACKING = 1
+
+
+def image_topic(camera: str) -> str:
+    """``/<camera>/image_raw``."""
+    return f'/{camera}/image_raw'
+
+
+def info_topic(camera: str) -> str:
+    """``/<camera>/camera_info``."""
+    return f'/{camera}/camera_info'
+
+
+def optical_frame(camera: str) -> str:
+    """The camera's optical frame id (REP 103 axes)."""
+    return f'{camera}_optical_frame'
+
+
+def ground_truth_state(sequence: SyntheticSequence, frame: SyntheticFrame,
+                       world_frame: str) -> HandStateValues:
+    """The ground-truth HandState of one frame."""
+    return HandStateValues(
+        stamp_ns=frame.stamp_ns, frame_id=world_frame, status=STATUS_TRACKING,
+        joint_names=PARAM_NAMES, joint_positions=frame.theta, keypoint_names=KEYPOINT_NAMES,
+        keypoints_m=frame.keypoints_m, fingertips_m=frame.fingertips_m,
+        shape_names=SHAPE_NAMES, shape_parameters=sequence.model.shape.to_vector(),
+        energy_names=(), energy_costs=np.zeros(0), iterations=0, processing_time_s=0.0)
+
+
+def write_sequence(sequence: SyntheticSequence, out_dir: str | Path, *,
+                   storage: str = 'mcap') -> Path:
+    """Render every frame into ``out_dir/bag`` and write ``out_dir/rig.yaml``; return the bag."""
+    out = Path(out_dir)
+    if out.exists() and any(out.iterdir()):
+        msg = f'output directory {out} exists and is not empty'
+        raise ConfigError(msg)
+    out.mkdir(parents=True, exist_ok=True)
+    rig = sequence.rig
+    rig.to_yaml(out / 'rig.yaml')
+    bag = out / 'bag'
+    with BagWriter(bag, storage=storage) as writer:
+        for cam in rig.names:
+            writer.add_topic(image_topic(cam), 'sensor_msgs/msg/Image', qos='sensor_data')
+            writer.add_topic(info_topic(cam), 'sensor_msgs/msg/CameraInfo')
+        writer.add_topic(GT_JOINTS_TOPIC, 'sensor_msgs/msg/JointState')
+        writer.add_topic(GT_STATE_TOPIC, 'hand_tracker_msgs/msg/HandState')
+        for frame in sequence:
+            for camera, image in zip(rig.cameras, frame.images):
+                frame_id = optical_frame(camera.name)
+                writer.write(image_topic(camera.name), frame.stamp_ns,
+                             image_msg(image, frame.stamp_ns, frame_id))
+                writer.write(info_topic(camera.name), frame.stamp_ns, camera_info_msg(
+                    CameraInfoValues(frame.stamp_ns, frame_id, camera.width, camera.height,
+                                     camera.K, camera.dist, 'plumb_bob')))
+            writer.write(GT_JOINTS_TOPIC, frame.stamp_ns,
+                         joint_state_msg(frame.stamp_ns, PARAM_NAMES, frame.theta))
+            writer.write(GT_STATE_TOPIC, frame.stamp_ns, hand_state_msg(
+                ground_truth_state(sequence, frame, rig.world_frame)))
+    return bag

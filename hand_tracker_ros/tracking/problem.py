@@ -1,0 +1,80 @@
+"""The tracking objective: weighted energy terms stacked for Levenberg-Marquardt.
+
+With fixed correspondences ``c_i`` for every enabled term ``i``, the objective of one round is
+
+    F(theta) = sum_i 0.5 * w_i * |r_i(theta; c_i)|^2 = 0.5 * |r(theta)|^2,
+    r = [sqrt(w_1) r_1; ...; sqrt(w_n) r_n],   J = dr/dtheta = [sqrt(w_i) J_i]
+
+where each ``r_i, J_i`` comes from the term's ``linearize`` on the model posed at ``theta``.
+Terms are independent: their order does not matter (house rule 6).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.energies.base import Energy
+from hand_tracker_ros.optim.lm import ResidualFunction
+
+
+@dataclass(frozen=True)
+class Term:
+    """An energy term with its weight (cost = 0.5 * weight * |r|^2)."""
+
+    energy: Energy
+    weight: float
+
+    @property
+    def name(self) -> str:
+        """The energy's name."""
+        return self.energy.name
+
+
+class Problem:
+    """Weighted terms over the pose of one hand model."""
+
+    def __init__(self, model: Any, terms: Sequence[Term]) -> None:
+        self.model = model
+        self.terms = tuple(t for t in terms if t.weight > 0.0)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Names of the active terms, in stacking order."""
+        return tuple(t.name for t in self.terms)
+
+    def correspond(self, context: Any) -> tuple[Any, ...]:
+        """Correspondences of every term for one round."""
+        return tuple(t.energy.correspond(context) for t in self.terms)
+
+    def function(self, correspondences: Sequence[Any]) -> ResidualFunction:
+        """The stacked residual function of one round, for :func:`levenberg_marquardt`."""
+        scales = [math.sqrt(t.weight) for t in self.terms]
+
+        def fun(theta: FloatArray, jacobian: bool) -> tuple[FloatArray, FloatArray | None]:
+            posed = self.model.pose(theta, jacobian=jacobian)
+            rows: list[FloatArray] = []
+            jacs: list[FloatArray] = []
+            for term, corr, scale in zip(self.terms, correspondences, scales):
+                if jacobian:
+                    r, J = term.energy.linearize(posed, corr)
+                    jacs.append(scale * J)
+                else:
+                    r = term.energy.residuals(posed, corr)
+                rows.append(scale * r)
+            r_all = np.concatenate(rows) if rows else np.zeros(0)
+            if not jacobian:
+                return r_all, None
+            return r_all, (np.vstack(jacs) if jacs else np.zeros((0, theta.size)))
+
+        return fun
+
+    def costs(self, theta: FloatArray, correspondences: Sequence[Any]) -> dict[str, float]:
+        """Per-term cost ``0.5 * w * |r|^2`` at ``theta``."""
+        posed = self.model.pose(theta, jacobian=False)
+        return {t.name: 0.5 * t.weight * float(np.sum(t.energy.residuals(posed, c) ** 2))
+                for t, c in zip(self.terms, correspondences)}
