@@ -1,0 +1,175 @@
+"""Forward kinematics of the hand skeleton and its analytic Jacobian.
+
+Every bone ``b`` has a world transform ``T_b = T_parent(b) Trans(o_b) R_rest,b R_joint,b``
+(4x4). The palm is moved by the global DOF,
+``T_palm = Trans(t) Ry(hand_ry) Rz(hand_rz) Rx(hand_rx)``; the first bone of finger ``i`` has
+``o = base_i``, ``R_joint = Rz(-abd) Rx(flex)`` (abduction about the local -z, then flexion
+about the abducted local +x); the second and third have ``o = (0, length, 0)``,
+``R_rest = I`` and ``R_joint = Rx(flex)``.
+
+Jacobian. Each rotational DOF ``k`` is a hinge with world axis ``a_k`` through the pivot
+``p_k`` (the joint centre; the wrist for the global rotation). A point ``x`` rigidly attached
+to a bone that DOF ``k`` moves has
+
+    dx / dtheta_k = a_k x (x - p_k)          (revolute)
+    dx / dtheta_k = e_k                      (translation k = 0, 1, 2)
+
+and zero for DOF that do not move its bone (``moves[k, b]``). The world axes are the hinge
+axes of the current pose: for chained hinges in one joint the later axis is the earlier
+hinge's rotation applied to the local axis (e.g. flexion axis ``R_parent R_rest Rz(-abd) e_x``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
+from hand_tracker_ros.geometry.rotations import rot_x, rot_y, rot_z
+from hand_tracker_ros.model.layout import P, PARAM_NAMES
+from hand_tracker_ros.model.skeleton import B, KEYPOINT_BONES, RestSkeleton
+
+_EX, _EY, _EZ = np.eye(3)
+_RY, _RZ, _RX = (PARAM_NAMES.index(n) for n in ('hand_ry', 'hand_rz', 'hand_rx'))
+# theta index of the first DOF of finger i (flex, abd, 2nd-joint flex, 3rd-joint flex).
+_FINGER_DOF0 = 6 + 4 * np.arange(5)
+# Bone ids of segment l of finger i: (5, 3).
+_FINGER_BONES = 1 + 3 * np.arange(5)[:, None] + np.arange(3)[None, :]
+MAX_BONE_DOFS = 3 + 4   # global rotations + the hinges of one finger chain
+
+
+def _moves_table() -> BoolArray:
+    """``moves[k, b]``: does DOF k move bone b? (P, B) bool."""
+    moves = np.zeros((P, B), dtype=bool)
+    moves[:6, :] = True
+    for i in range(5):
+        k0, bones = _FINGER_DOF0[i], _FINGER_BONES[i]
+        moves[k0:k0 + 2, bones] = True
+        moves[k0 + 2, bones[1:]] = True
+        moves[k0 + 3, bones[2]] = True
+    return moves
+
+
+MOVES: BoolArray = _moves_table()
+MOVES.setflags(write=False)
+
+
+def bone_revolute_dofs() -> IntArray:
+    """Revolute DOF moving each bone, padded with -1: (B, MAX_BONE_DOFS) int64."""
+    table = np.full((B, MAX_BONE_DOFS), -1, dtype=np.int64)
+    for b in range(B):
+        dofs = np.flatnonzero(MOVES[3:, b]) + 3
+        table[b, :dofs.size] = dofs
+    return table
+
+
+@dataclass(frozen=True)
+class FKResult:
+    """Posed skeleton.
+
+    Attributes
+    ----------
+    bone_transforms : (B, 4, 4) float64
+        ``T_world_bone`` of every bone.
+    axes : (P, 3) float64
+        World hinge axis of every revolute DOF; unit ``e_k`` for the translations.
+    pivots : (P, 3) float64
+        World pivot of every revolute DOF (zero rows for the translations).
+    """
+
+    bone_transforms: FloatArray
+    axes: FloatArray
+    pivots: FloatArray
+
+
+def _rx(angles: FloatArray) -> FloatArray:
+    c, s = np.cos(angles), np.sin(angles)
+    r = np.zeros(angles.shape + (3, 3))
+    r[..., 0, 0] = 1.0
+    r[..., 1, 1], r[..., 1, 2], r[..., 2, 1], r[..., 2, 2] = c, -s, s, c
+    return r
+
+
+def _rz(angles: FloatArray) -> FloatArray:
+    c, s = np.cos(angles), np.sin(angles)
+    r = np.zeros(angles.shape + (3, 3))
+    r[..., 2, 2] = 1.0
+    r[..., 0, 0], r[..., 0, 1], r[..., 1, 0], r[..., 1, 1] = c, -s, s, c
+    return r
+
+
+def _global_rotation(theta: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``Ry Rz Rx`` and the world axes of the three hinges."""
+    ry, rz, rx = rot_y(theta[_RY]), rot_z(theta[_RZ]), rot_x(theta[_RX])
+    ryz = ry @ rz
+    return ryz @ rx, ry @ _EZ, ryz @ _EX
+
+
+def forward_kinematics(rest: RestSkeleton, theta: FloatArray) -> FKResult:
+    """Bone transforms and hinge axes/pivots for pose ``theta`` (P,) float64 (trusted)."""
+    r_hand, axis_rz, axis_rx = _global_rotation(theta)
+    t = theta[0:3]
+    transforms = np.zeros((B, 4, 4))
+    transforms[:, 3, 3] = 1.0
+    transforms[0, :3, :3], transforms[0, :3, 3] = r_hand, t
+    axes, pivots = np.zeros((P, 3)), np.zeros((P, 3))
+    axes[:3] = np.eye(3)
+    axes[_RY], axes[_RZ], axes[_RX] = _EY, axis_rz, axis_rx
+    pivots[3:6] = t
+    k0 = _FINGER_DOF0
+    # First segment of all five fingers at once: R = R_hand R_rest Rz(-abd) Rx(flex).
+    r_abd = r_hand @ rest.rest_rot                                  # (5, 3, 3)
+    r_flex = r_abd @ _rz(-theta[k0 + 1])
+    rot = r_flex @ _rx(theta[k0])
+    pos = t + rest.base_m @ r_hand.T                                # (5, 3)
+    axes[k0 + 1], axes[k0] = -r_abd[:, :, 2], r_flex[:, :, 0]
+    pivots[k0 + 1], pivots[k0] = pos, pos
+    _store(transforms, _FINGER_BONES[:, 0], rot, pos)
+    for lvl in (1, 2):
+        pos = pos + rot[:, :, 1] * rest.lengths_m[:, lvl - 1, None]
+        axes[k0 + 1 + lvl], pivots[k0 + 1 + lvl] = rot[:, :, 0], pos
+        rot = rot @ _rx(theta[k0 + 1 + lvl])
+        _store(transforms, _FINGER_BONES[:, lvl], rot, pos)
+    return FKResult(bone_transforms=transforms, axes=axes, pivots=pivots)
+
+
+def _store(transforms: FloatArray, bones: IntArray, rot: FloatArray, pos: FloatArray) -> None:
+    transforms[bones, :3, :3] = rot
+    transforms[bones, :3, 3] = pos
+
+
+def transform_points(fk: FKResult, bones: IntArray, local_m: FloatArray) -> FloatArray:
+    """World positions (N, 3) of points given in their bone frames.
+
+    Parameters
+    ----------
+    bones : (N,) int64
+        Bone of every point.
+    local_m : (N, 3) float64
+        Coordinates in that bone's frame.
+    """
+    t = fk.bone_transforms[bones]
+    return np.einsum('nij,nj->ni', t[:, :3, :3], local_m) + t[:, :3, 3]
+
+
+def points_jacobian(fk: FKResult, bones: IntArray, points_m: FloatArray) -> FloatArray:
+    """Jacobian (N, 3, P) of world points rigidly attached to ``bones`` (N,).
+
+    ``points_m`` (N, 3) are their current world positions.
+    """
+    cols = np.cross(fk.axes[None, :, :], points_m[:, None, :] - fk.pivots[None, :, :])
+    cols[:, :3, :] = np.eye(3)
+    cols *= MOVES.T[bones][:, :, None]
+    return cols.transpose(0, 2, 1)
+
+
+def keypoint_local(rest: RestSkeleton) -> FloatArray:
+    """Keypoints (21, 3) in the frames of KEYPOINT_BONES: bone origins, tips at the bone end."""
+    local = np.zeros((len(KEYPOINT_BONES), 3))
+    local[4::4, 1] = rest.lengths_m[:, 2]
+    return local
+
+
+def rest_transforms(rest: RestSkeleton) -> FloatArray:
+    """Bone transforms (B, 4, 4) of the rest pose (theta = 0) in the hand frame."""
+    return forward_kinematics(rest, np.zeros(P)).bone_transforms

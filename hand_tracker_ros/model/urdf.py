@@ -1,0 +1,129 @@
+"""URDF of the hand, generated from a :class:`~.hand.HandModel`.
+
+Joint names equal ``PARAM_NAMES`` (the JointState names the tracker publishes), so
+``robot_state_publisher`` can display the tracked hand. The global DOF are three prismatic
+joints (x, y, z) and three revolute joints in the chain order ``hand_ry, hand_rz, hand_rx``
+through massless dummy links from the root link, then the palm. Each finger joint with two
+DOF (thumb CMC, finger MCP) is an abduction joint (axis -z) followed by a flexion joint
+(axis +x) through a dummy link, exactly as in :mod:`.kinematics`. Visuals are the sphere-mesh
+spheres and, for each pill, a cylinder of the mean radius between its two spheres.
+"""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.model.layout import GLOBAL_ROTATION_CHAIN, PARAM_NAMES
+from hand_tracker_ros.model.skeleton import BONE_NAMES, BONE_PARENTS
+
+_FMT = '{:.6g}'
+
+
+def _vec(values: np.ndarray) -> str:
+    return ' '.join(_FMT.format(float(v)) for v in values)
+
+
+def _rpy(rot: np.ndarray) -> np.ndarray:
+    """URDF fixed-axis roll-pitch-yaw of ``rot``: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    pitch = np.arcsin(np.clip(-rot[2, 0], -1.0, 1.0))
+    roll = np.arctan2(rot[2, 1], rot[2, 2])
+    yaw = np.arctan2(rot[1, 0], rot[0, 0])
+    return np.array([roll, pitch, yaw])
+
+
+def _joint(robot: ET.Element, name: str, kind: str, parent: str, child: str,
+           xyz: np.ndarray, rpy: np.ndarray, axis: np.ndarray, limits: tuple[float, float]
+           ) -> None:
+    joint = ET.SubElement(robot, 'joint', name=name, type=kind)
+    ET.SubElement(joint, 'parent', link=parent)
+    ET.SubElement(joint, 'child', link=child)
+    ET.SubElement(joint, 'origin', xyz=_vec(xyz), rpy=_vec(rpy))
+    ET.SubElement(joint, 'axis', xyz=_vec(axis))
+    ET.SubElement(joint, 'limit', lower=_FMT.format(limits[0]), upper=_FMT.format(limits[1]),
+                  effort='1', velocity='10')
+
+
+def _link(robot: ET.Element, name: str) -> ET.Element:
+    return ET.SubElement(robot, 'link', name=name)
+
+
+def _visual(link: ET.Element, xyz: np.ndarray, rpy: np.ndarray, geometry: str,
+            **size: str) -> None:
+    visual = ET.SubElement(link, 'visual')
+    ET.SubElement(visual, 'origin', xyz=_vec(xyz), rpy=_vec(rpy))
+    ET.SubElement(ET.SubElement(visual, 'geometry'), geometry, **size)
+    ET.SubElement(visual, 'material', name='skin')
+
+
+def _add_visuals(links: dict[int, ET.Element], model: HandModel) -> None:
+    local = model.sphere_local_m
+    rest_t = model.rest_bone_transforms
+    for s, bone in enumerate(model.sphere_part):
+        _visual(links[int(bone)], local[s], np.zeros(3), 'sphere',
+                radius=_FMT.format(model.sphere_radii_m[s]))
+    for s0, s1 in model.pills:
+        bone = int(model.sphere_part[s1])
+        # The pill's first sphere may belong to the parent: express it in this bone's frame.
+        p0 = np.linalg.inv(rest_t[bone]) @ rest_t[model.sphere_part[s0]] @ [*local[s0], 1.0]
+        p1 = local[s1]
+        length = float(np.linalg.norm(p1 - p0[:3]))
+        radius = 0.5 * (model.sphere_radii_m[s0] + model.sphere_radii_m[s1])
+        # Cylinders run along their local z; the bone runs along +y: roll by -90 deg.
+        _visual(links[bone], 0.5 * (p0[:3] + p1), np.array([-np.pi / 2, 0.0, 0.0]),
+                'cylinder', radius=_FMT.format(radius), length=_FMT.format(length))
+
+
+def _global_chain(robot: ET.Element, root_link: str, prefix: str,
+                  limit: dict[str, tuple[float, float]]) -> None:
+    """Root link, then 3 prismatic and 3 revolute global joints through dummy links."""
+    _link(robot, root_link)
+    unit = dict(zip(('x', 'y', 'z'), np.eye(3)))
+    chain = [(f'hand_t{a}', 'prismatic', unit[a]) for a in 'xyz']
+    chain += [(name, 'revolute', unit[name[-1]]) for name in GLOBAL_ROTATION_CHAIN]
+    parent = root_link
+    for name, kind, axis in chain:
+        child = f'{prefix}{name}_link' if name != chain[-1][0] else f'{prefix}palm'
+        _link(robot, child)
+        _joint(robot, name, kind, parent, child, np.zeros(3), np.zeros(3), axis, limit[name])
+        parent = child
+
+
+def urdf_text(model: HandModel, *, root_link: str = 'world', prefix: str = '') -> str:
+    """URDF XML text of ``model``.
+
+    Parameters
+    ----------
+    model : HandModel
+    root_link : str
+        Name of the root link the global joints hang from (e.g. 'world' or a camera frame).
+    prefix : str
+        Prefix for the link names (joint names stay PARAM_NAMES so JointState matches).
+    """
+    robot = ET.Element('robot', name='hand')
+    ET.SubElement(ET.SubElement(robot, 'material', name='skin'), 'color', rgba='0.9 0.7 0.6 1')
+    limit = dict(zip(PARAM_NAMES, zip(model.lower.tolist(), model.upper.tolist())))
+    _global_chain(robot, root_link, prefix, limit)
+    links = {0: robot.find(f"link[@name='{prefix}palm']")}
+    rest_t = model.rest_bone_transforms
+    for bone in range(1, len(BONE_NAMES)):
+        finger, seg = divmod(bone - 1, 3)
+        dof0 = 6 + 4 * finger
+        rel = np.linalg.inv(rest_t[BONE_PARENTS[bone]]) @ rest_t[bone]
+        parent = f'{prefix}{BONE_NAMES[BONE_PARENTS[bone]]}'
+        child = f'{prefix}{BONE_NAMES[bone]}'
+        if seg == 0:
+            abd = PARAM_NAMES[dof0 + 1]
+            _link(robot, f'{child}_abd')
+            _joint(robot, abd, 'revolute', parent, f'{child}_abd', rel[:3, 3],
+                   _rpy(rel[:3, :3]), -np.eye(3)[2], limit[abd])
+            parent, name, rel = f'{child}_abd', PARAM_NAMES[dof0], np.eye(4)
+        else:
+            name = PARAM_NAMES[dof0 + 1 + seg]
+        links[bone] = _link(robot, child)
+        _joint(robot, name, 'revolute', parent, child, rel[:3, 3], _rpy(rel[:3, :3]),
+               np.eye(3)[0], limit[name])
+    _add_visuals(links, model)
+    ET.indent(robot)
+    return ET.tostring(robot, encoding='unicode')
