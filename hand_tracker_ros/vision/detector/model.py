@@ -1,0 +1,118 @@
+"""The trained fingertip detector model and its ``.npz`` file.
+
+The file holds plain arrays only (no pickles): the feature bank, the flat forest, the skin
+table, and the scalars the detector needs (candidate stride and gate, positive radius, vote
+normaliser). It is written as a zip with fixed member timestamps, so training with the same
+seed writes the same bytes (``numpy.savez`` stamps the current time).
+"""
+from __future__ import annotations
+
+import io
+import zipfile
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from hand_tracker_ros._typing import Int32Array, UInt8Array
+from hand_tracker_ros.checks import check_shape
+from hand_tracker_ros.errors import ConfigError
+from hand_tracker_ros.vision.detector.channels import SKIN_BINS
+from hand_tracker_ros.vision.detector.forest import ForestArrays
+
+DEFAULT_MODEL_NAME = 'fingertip_forest.npz'
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)
+_FOREST_KEYS = ('roots', 'left', 'right', 'feature', 'threshold', 'value')
+_SCALAR_KEYS = ('stride', 'gate', 'radius_px', 'vote_norm', 'seed')
+
+
+def default_model_path() -> Path:
+    """Path of the model shipped in ``hand_tracker_ros/vision/models``."""
+    return Path(str(resources.files('hand_tracker_ros.vision') / 'models' / DEFAULT_MODEL_NAME))
+
+
+@dataclass(frozen=True, eq=False)
+class DetectorModel:
+    """Everything training produces.
+
+    Attributes
+    ----------
+    bank : (F, 6) int32
+        Pixel tests (see :mod:`.channels`).
+    forest : ForestArrays
+    skin_lut : (SKIN_BINS, SKIN_BINS) uint8
+        Skin likelihood per chroma bin.
+    stride : int
+        Candidate grid step (px).
+    gate : int
+        Minimum skin likelihood of a candidate (0-255).
+    radius_px : float
+        Positive radius R of training (px); leaf offsets are stored divided by it.
+    vote_norm : float
+        Smoothed vote peak of a typical visible tip on training views; scores are peak
+        heights divided by it.
+    seed : int
+        Training seed.
+    """
+
+    bank: Int32Array
+    forest: ForestArrays
+    skin_lut: UInt8Array
+    stride: int
+    gate: int
+    radius_px: float
+    vote_norm: float
+    seed: int
+
+    def __post_init__(self) -> None:
+        check_shape('bank', self.bank, (None, 6))
+        check_shape('skin_lut', self.skin_lut, (SKIN_BINS, SKIN_BINS))
+        if self.stride < 1 or self.radius_px <= 0.0 or self.vote_norm <= 0.0:
+            msg = (f'invalid detector model: stride {self.stride}, radius_px {self.radius_px}, '
+                   f'vote_norm {self.vote_norm}')
+            raise ConfigError(msg)
+
+    def save(self, path: str | Path) -> None:
+        """Write the model as a deterministic ``.npz`` (same model -> same bytes)."""
+        arrays = {'bank': self.bank, 'skin_lut': self.skin_lut,
+                  **{k: getattr(self.forest, k) for k in _FOREST_KEYS},
+                  **{k: np.asarray(getattr(self, k)) for k in _SCALAR_KEYS}}
+        arrays['value'] = arrays['value'].astype(np.float32)
+        with zipfile.ZipFile(path, 'w', compression=zipfile.ZIP_DEFLATED) as archive:
+            for name, array in arrays.items():
+                buffer = io.BytesIO()
+                np.lib.format.write_array(buffer, np.asarray(array, order='C'),
+                                          allow_pickle=False)
+                info = zipfile.ZipInfo(f'{name}.npy', date_time=_ZIP_TIME)
+                info.compress_type = zipfile.ZIP_DEFLATED
+                archive.writestr(info, buffer.getvalue())
+
+    @classmethod
+    def load(cls, path: str | Path | None = None) -> DetectorModel:
+        """Read a model (default: the shipped one).
+
+        Raises
+        ------
+        ConfigError
+            The file is missing or lacks a field.
+        """
+        path = Path(path) if path is not None else default_model_path()
+        if not path.is_file():
+            msg = f'detector model {path} does not exist (train one with `hand-tracker ' \
+                  f'train-detector`)'
+            raise ConfigError(msg)
+        with np.load(path, allow_pickle=False) as data:
+            missing = sorted({'bank', 'skin_lut', *_FOREST_KEYS, *_SCALAR_KEYS} - set(data))
+            if missing:
+                msg = f'detector model {path} lacks {", ".join(missing)}'
+                raise ConfigError(msg)
+            forest = ForestArrays(
+                roots=data['roots'].astype(np.int32), left=data['left'].astype(np.int32),
+                right=data['right'].astype(np.int32), feature=data['feature'].astype(np.int32),
+                threshold=data['threshold'].astype(np.float64),
+                value=data['value'].astype(np.float64))
+            return cls(bank=data['bank'].astype(np.int32), forest=forest,
+                       skin_lut=data['skin_lut'].astype(np.uint8), stride=int(data['stride']),
+                       gate=int(data['gate']), radius_px=float(data['radius_px']),
+                       vote_norm=float(data['vote_norm']), seed=int(data['seed']))

@@ -1,0 +1,194 @@
+r"""Training of the fingertip Hough forest (needs scikit-learn; the runtime does not).
+
+Steps, all deterministic in the seed:
+
+1. render ``n_views`` labelled views (:mod:`.data`);
+2. learn the skin table from chroma histograms of hand pixels vs all pixels, and the
+   candidate gate as the ``gate_quantile`` of the skin likelihood of positive pixels;
+3. sample gated pixels per view: positives within ``radius_px`` of a visible tip (at most
+   ``positives_per_tip``), negatives farther than ``radius_px`` from every tip (half on the
+   hand, half elsewhere), pixels near only invisible tips are left out (ambiguous labels);
+4. describe them with a random bank of pixel tests and fit a scikit-learn random forest
+   *regressor* on the targets :math:`(y, y\,d_x/R, y\,d_y/R)`: its squared-error split
+   criterion sums the class impurity and the offset variance of the positives, the two
+   uncertainties a Hough forest alternates between, in one objective;
+5. export the trees to flat arrays and calibrate ``vote_norm`` (median vote peak at visible
+   tips on a subset of the training views).
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_tracker_ros._typing import FloatArray, IntArray, UInt8Array
+from hand_tracker_ros.config import param
+from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.vision.detector.channels import (
+    SKIN_BINS, chroma_histogram, compute_channels, feature_matrix, gate_image, random_bank,
+    skin_table)
+from hand_tracker_ros.vision.detector.data import LabelledView, labelled_views
+from hand_tracker_ros.vision.detector.detector import (DetectorConfig, FingertipDetector,
+                                                       smooth_votes)
+from hand_tracker_ros.vision.detector.forest import ForestArrays
+from hand_tracker_ros.vision.detector.model import DetectorModel
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class TrainingConfig:
+    """Fingertip forest training."""
+
+    n_views: int = param(900, 'rendered training views', low=1, high=1_000_000)
+    n_trees: int = param(10, 'trees of the forest', low=1, high=200)
+    max_leaves: int = param(3000, 'leaves per tree (bounds the model size)', low=2,
+                            high=1_000_000)
+    min_samples_leaf: int = param(5, 'minimum training samples per leaf', low=1, high=10000)
+    n_features: int = param(256, 'pixel tests in the random bank', low=1, high=4096)
+    max_features: float = param(0.15, 'fraction of the bank tried at each split', low=0.0,
+                                high=1.0)
+    window_px: int = param(16, 'half-size of the test window', unit='px', low=1, high=64)
+    pair_fraction: float = param(0.75, 'fraction of two-pixel tests', low=0.0, high=1.0)
+    radius_px: float = param(7.0, 'a candidate within this distance of a tip is positive',
+                             unit='px', low=1.0, high=30.0)
+    positives_per_tip: int = param(40, 'positive samples per visible tip and view', low=1,
+                                   high=10000)
+    negatives_per_view: int = param(300, 'negative samples per view', low=0, high=100000)
+    gate_quantile: float = param(0.02, 'fraction of positive pixels the candidate gate may '
+                                 'lose', low=0.0, high=0.5)
+    stride: int = param(3, 'candidate grid step at inference', unit='px', low=1, high=8)
+    calibration_views: int = param(100, 'training views used to calibrate vote_norm', low=1,
+                                   high=100000)
+    n_jobs: int = param(2, 'scikit-learn worker threads (results do not depend on it)', low=1,
+                        high=64)
+
+
+def _tip_distances(shape_hw: tuple[int, int], view: LabelledView) -> tuple[FloatArray, ...]:
+    """Per-pixel distance to the nearest visible / invisible tip and offset to the visible."""
+    vs, us = np.mgrid[0:shape_hw[0], 0:shape_hw[1]].astype(np.float64)
+    tips = np.nan_to_num(view.tips_uv, nan=-1e6)
+    dist = np.hypot(us[None] - tips[:, 0, None, None], vs[None] - tips[:, 1, None, None])
+    vis = np.where(view.tips_visible[:, None, None], dist, np.inf)
+    hid = np.where(view.tips_visible[:, None, None], np.inf, dist)
+    nearest = np.argmin(vis, axis=0)
+    return (vis.min(axis=0), hid.min(axis=0), tips[nearest, 0] - us, tips[nearest, 1] - vs)
+
+
+def _sample_view(view: LabelledView, channels: UInt8Array, gate: int, cfg: TrainingConfig,
+                 rng: np.random.Generator) -> tuple[IntArray, IntArray, FloatArray]:
+    """Sampled pixels (ys, xs) and their targets (N, 3) of one view."""
+    d_vis, d_hid, dx, dy = _tip_distances(view.hand_mask.shape, view)
+    gated = gate_image(channels) >= gate
+    positive = gated & (d_vis <= cfg.radius_px)
+    negative = gated & (d_vis > cfg.radius_px) & (d_hid > cfg.radius_px)
+    n_pos = cfg.positives_per_tip * int(view.tips_visible.sum())
+    half = cfg.negatives_per_view // 2
+    picks = [_pick(positive, n_pos, rng), _pick(negative & view.hand_mask, half, rng),
+             _pick(negative & ~view.hand_mask, cfg.negatives_per_view - half, rng)]
+    ys = np.concatenate([p[0] for p in picks])
+    xs = np.concatenate([p[1] for p in picks])
+    label = positive[ys, xs].astype(np.float64)
+    targets = np.column_stack([label, label * dx[ys, xs] / cfg.radius_px,
+                               label * dy[ys, xs] / cfg.radius_px])
+    return ys, xs, targets
+
+
+def _pick(mask: np.ndarray, n: int, rng: np.random.Generator) -> tuple[IntArray, IntArray]:
+    ys, xs = np.nonzero(mask)
+    keep = rng.permutation(ys.size)[:n]
+    return ys[np.sort(keep)], xs[np.sort(keep)]
+
+
+def _skin_model(views: list[LabelledView], quantile: float,
+                radius_px: float) -> tuple[UInt8Array, int]:
+    """Skin table and candidate gate learned from the views."""
+    flat = np.full((SKIN_BINS, SKIN_BINS), 128, dtype=np.uint8)
+    hand = np.zeros((SKIN_BINS, SKIN_BINS))
+    total = np.zeros((SKIN_BINS, SKIN_BINS))
+    for view in views:
+        channels = compute_channels(view.image, flat)
+        hand += chroma_histogram(channels, view.hand_mask)
+        total += chroma_histogram(channels, np.ones_like(view.hand_mask))
+    lut = skin_table(hand, total)
+    near = []
+    for view in views:
+        channels = compute_channels(view.image, lut)
+        d_vis = _tip_distances(view.hand_mask.shape, view)[0]
+        near.append(gate_image(channels)[(d_vis <= radius_px) & view.hand_mask])
+    gate = int(np.floor(np.quantile(np.concatenate(near), quantile)))
+    return lut, max(gate, 1)
+
+
+def export_forest(estimators: list) -> ForestArrays:
+    """Concatenate fitted scikit-learn regression trees into :class:`ForestArrays`."""
+    roots, left, right, feature, threshold, value = [], [], [], [], [], []
+    offset = 0
+    for estimator in estimators:
+        tree = estimator.tree_
+        internal = tree.children_left >= 0
+        roots.append(offset)
+        left.append(np.where(internal, tree.children_left + offset, -1))
+        right.append(np.where(internal, tree.children_right + offset, -1))
+        feature.append(np.where(internal, tree.feature, -1))
+        threshold.append(tree.threshold)
+        value.append(tree.value[:, :, 0])
+        offset += tree.node_count
+    return ForestArrays(roots=np.asarray(roots, dtype=np.int32),
+                        left=np.concatenate(left).astype(np.int32),
+                        right=np.concatenate(right).astype(np.int32),
+                        feature=np.concatenate(feature).astype(np.int32),
+                        threshold=np.concatenate(threshold).astype(np.float64),
+                        value=np.concatenate(value).astype(np.float64))
+
+
+def fit_forest(features: np.ndarray, targets: FloatArray, cfg: TrainingConfig,
+               seed: int) -> ForestArrays:
+    """Fit the regression forest on (N, F) features and (N, 3) targets; export it."""
+    from sklearn.ensemble import RandomForestRegressor
+
+    forest = RandomForestRegressor(
+        n_estimators=cfg.n_trees, max_leaf_nodes=cfg.max_leaves,
+        min_samples_leaf=cfg.min_samples_leaf, max_features=cfg.max_features,
+        bootstrap=True, random_state=seed, n_jobs=cfg.n_jobs)
+    forest.fit(features.astype(np.float32), targets)
+    return export_forest(forest.estimators_)
+
+
+def _vote_norm(model: DetectorModel, views: list[LabelledView]) -> float:
+    """Median smoothed vote peak within radius_px of each visible tip."""
+    detector = FingertipDetector(model, DetectorConfig())
+    sigma = DetectorConfig().smoothing_sigma_px
+    peaks = []
+    for view in views:
+        smoothed = smooth_votes(detector.votes(view.image), sigma)
+        vs, us = np.mgrid[0:smoothed.shape[0], 0:smoothed.shape[1]]
+        for u, v in view.tips_uv[view.tips_visible]:
+            near = np.hypot(us - u, vs - v) <= model.radius_px
+            peaks.append(float(smoothed[near].max(initial=0.0)))
+    return float(np.median(peaks)) if peaks and np.median(peaks) > 0 else 1.0
+
+
+def train(seed: int, cfg: TrainingConfig = TrainingConfig(),
+          model: HandModel | None = None) -> DetectorModel:
+    """Render, sample, fit and calibrate a detector model (deterministic in ``seed``)."""
+    views = list(labelled_views(cfg.n_views, seed, model=model))
+    lut, gate = _skin_model(views, cfg.gate_quantile, cfg.radius_px)
+    rng = np.random.default_rng([seed, 1])
+    bank = random_bank(cfg.n_features, cfg.window_px, cfg.pair_fraction, rng)
+    blocks, targets = [], []
+    for view in views:
+        channels = compute_channels(view.image, lut)
+        ys, xs, t = _sample_view(view, channels, gate, cfg, rng)
+        blocks.append(feature_matrix(channels, bank, ys, xs))
+        targets.append(t)
+    features, target = np.concatenate(blocks), np.concatenate(targets)
+    logger.info('training on %d samples (%d positive) from %d views, gate %d',
+                len(target), int(target[:, 0].sum()), len(views), gate)
+    forest = fit_forest(features, target, cfg, seed)
+    provisional = DetectorModel(bank=bank, forest=forest, skin_lut=lut, stride=cfg.stride,
+                                gate=gate, radius_px=cfg.radius_px, vote_norm=1.0, seed=seed)
+    norm = _vote_norm(provisional, views[:cfg.calibration_views])
+    return DetectorModel(bank=bank, forest=forest, skin_lut=lut, stride=cfg.stride, gate=gate,
+                         radius_px=cfg.radius_px, vote_norm=norm, seed=seed)
