@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hand_tracker_ros.config import param
+from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.vision.features import FeaturesConfig
 
 DEFAULT_CAMERAS = ('cam0', 'cam1', 'cam2', 'cam3')
 
@@ -20,6 +21,7 @@ class FeaturesNodeConfig:
     cameras: tuple[str, ...] = param(DEFAULT_CAMERAS, 'camera namespaces served by this node')
     image_topic: str = param('image_raw', 'image topic, relative to each camera namespace')
     queue_depth: int = param(2, 'subscription queue depth per camera', low=1, high=100)
+    features: FeaturesConfig = nested(FeaturesConfig)
 
 
 @dataclass(frozen=True)

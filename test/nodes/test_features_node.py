@@ -1,0 +1,70 @@
+"""The `features` node turns synthetic camera frames into the core's features, and survives
+bad input with a clear log line."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
+from hand_tracker_ros.vision.features import FeatureExtractor, FeaturesConfig
+from hand_tracker_ros.vision.visualize import edge_image, mask_image
+
+pytestmark = pytest.mark.ros
+CAMERAS = ('cam0', 'cam1')
+
+
+def test_features_node_matches_the_core_and_survives_bad_images(node_process, ros, hand_model):
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import Image
+    from std_msgs.msg import Header
+
+    from hand_tracker_ros.ros_io.images import image_msg
+
+    node, spin_until = ros
+    features = node_process('features', '-p', f'cameras:={list(CAMERAS)}'.replace("'", ''))
+    sequence = SyntheticSequence(SynthConfig(motion='tapping', n_frames=3, n_cameras=2),
+                                 hand_model)
+    received: dict[tuple[str, str, int], np.ndarray] = {}
+
+    def keep(cam: str, kind: str, msg: Image) -> None:
+        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        dtype = np.float32 if msg.encoding.startswith('32F') else np.uint8
+        channels = 2 if msg.encoding == '32FC2' else 1
+        received[(cam, kind, stamp)] = np.frombuffer(msg.data, dtype).reshape(
+            msg.height, msg.width, channels).squeeze()
+
+    pubs = {c: node.create_publisher(Image, f'{c}/image_raw', qos_profile_sensor_data)
+            for c in CAMERAS}
+    for cam in CAMERAS:
+        for kind in ('edges', 'mask', 'flow'):
+            node.create_subscription(Image, f'{cam}/{kind}',
+                                     lambda m, c=cam, k=kind: keep(c, k, m), 10)
+    assert spin_until(lambda: all(p.get_subscription_count() for p in pubs.values()), 30.0)
+
+    core = {c: FeatureExtractor(c, FeaturesConfig()) for c in CAMERAS}
+    expected = {}
+    for frame in sequence:
+        for cam, image in zip(CAMERAS, frame.images):
+            header = Header(frame_id=f'{cam}_optical_frame')
+            header.stamp.sec, header.stamp.nanosec = divmod(frame.stamp_ns, 10**9)
+            pubs[cam].publish(image_msg(image, header))
+            expected[(cam, frame.stamp_ns)] = core[cam].process(image, frame.stamp_ns)
+        spin_until(lambda: False, 0.3)  # pace the frames like a camera would
+    stamps = [f.stamp_ns for f in sequence]
+    assert spin_until(lambda: all((c, 'flow', stamps[-1]) in received for c in CAMERAS), 30.0)
+    bad = Image(height=240, width=320, encoding='yuv422', step=640)
+    bad.data = bytes(240 * 640)
+    bad.header.stamp.sec = 1
+    pubs['cam0'].publish(bad)
+    assert spin_until(lambda: 'yuv422' in features.output(), 20.0)
+    header = Header()
+    header.stamp.sec = 1_800_000_000
+    pubs['cam0'].publish(image_msg(sequence.frame(0).images[0], header))
+    assert spin_until(lambda: ('cam0', 'edges', 1_800_000_000 * 10**9) in received, 20.0)
+    for (cam, stamp), feats in expected.items():
+        np.testing.assert_array_equal(received[(cam, 'edges', stamp)], edge_image(feats.edges))
+        np.testing.assert_array_equal(received[(cam, 'mask', stamp)], mask_image(feats.mask))
+    assert (('cam0', 'flow', stamps[0]) not in received)    # no flow on a camera's 1st frame
+    np.testing.assert_allclose(received[('cam1', 'flow', stamps[1])],
+                               expected[('cam1', stamps[1])].flow.flow_px, atol=1e-6)
+    assert features.proc.poll() is None
