@@ -14,8 +14,11 @@ spirit; it keeps every trial pose within the joint limits). The gain ratio
     rho = (F(x) - F(x')) / (-(g . d + 0.5 d^T A d)),   d = x' - x
 
 decides: ``rho > 0`` accepts the step and relaxes the damping,
-``mu *= max(1/3, 1 - (2 rho - 1)^3)``; otherwise ``mu *= nu, nu *= 2`` [Nielsen99]. The first
-damping is ``mu = tau * max(diag(A))``.
+``mu *= max(1/3, 1 - (2 rho - 1)^3)``; otherwise ``mu *= nu, nu *= 2`` [Nielsen99]. Because
+``D`` already carries the scale of every parameter (metres and radians differ by orders of
+magnitude in ``A``), the first damping is the dimensionless ``mu = tau``; levmar's
+``tau * max(diag(A))`` belongs to the unscaled ``D = I`` and would freeze the small-scale
+parameters when translations dominate ``A``.
 
 Why hand-written rather than ``scipy.optimize.least_squares``: scipy forces an explicit J and runs
 a QR of it every iteration (5-8x the cost of the normal equations for our 26 columns and 10k-50k
@@ -72,7 +75,7 @@ class LMConfig:
     """Levenberg-Marquardt settings."""
 
     max_iterations: int = param(10, 'LM iterations per call (Ballan: 10)', low=1, high=1000)
-    tau: float = param(1e-3, 'initial damping relative to max(diag(J^T J))', low=1e-12, high=1e6)
+    tau: float = param(1e-3, 'initial damping, relative to diag(J^T J)', low=1e-12, high=1e6)
     ftol: float = param(1e-6, 'stop when the relative cost decrease is below this',
                         low=0.0, high=1.0)
     xtol: float = param(1e-7, 'stop when the step norm is below this', low=0.0, high=1.0)
@@ -158,7 +161,7 @@ def levenberg_marquardt(fun: ResidualFunction, x0: FloatArray, lower: FloatArray
         return FitResult(x, float('nan'), float('nan'), FitStatus.NON_FINITE, 0, n_eval)
     cost = initial_cost = 0.5 * float(r @ r)
     A, g = J.T @ J, J.T @ r
-    mu = config.tau * max(float(np.max(np.diag(A), initial=0.0)), 1e-12)
+    mu = config.tau
     nu = 2.0
     status = FitStatus.MAX_ITERATIONS
     iteration = 0

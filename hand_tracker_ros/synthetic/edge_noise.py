@@ -28,7 +28,7 @@ from hand_tracker_ros.config import param
 class EdgeNoiseConfig:
     """Amount of structured edge noise (densities are per 100 x 100 px of image)."""
 
-    enabled: bool = param(True, 'apply structured edge noise')
+    enabled: bool = param(False, 'apply structured edge noise (synthetic evaluation)')
     strokes_per_10k_px: float = param(1.5, 'clutter strokes added', low=0.0, high=100.0)
     stroke_length_px: float = param(40.0, 'mean stroke length', unit='px', low=1.0, high=1000.0)
     blobs_per_10k_px: float = param(0.6, 'blob outlines added', low=0.0, high=100.0)
@@ -71,8 +71,7 @@ def _draw_blob(canvas: np.ndarray, angle: np.ndarray, rng: np.random.Generator,
 
 
 def add_edge_noise(edges: BoolArray, orientation_rad: Float32Array, rng: np.random.Generator,
-                   config: EdgeNoiseConfig = EdgeNoiseConfig()
-                   ) -> tuple[BoolArray, Float32Array]:
+                   config: EdgeNoiseConfig) -> tuple[BoolArray, Float32Array]:
     """Add clutter and remove true edges.
 
     Parameters

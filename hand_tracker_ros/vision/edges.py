@@ -127,17 +127,32 @@ def compute_edges(gray: UInt8Array, config: EdgeConfig, *,
     edges_u8 = cv2.Canny(gx, gy, config.canny_low, config.canny_high,
                          L2gradient=config.l2_gradient)
     orientation = cv2.phase(gx.astype(np.float32), gy.astype(np.float32))
+    return edge_map_from(edges_u8 > 0, orientation, offset_uv_px=offset_uv_px)
+
+
+def edge_map_from(edges: BoolArray, orientation_rad: Float32Array, *,
+                  offset_uv_px: tuple[int, int] = (0, 0)) -> EdgeMap:
+    """The lookup tables of given edge pixels (e.g. after synthetic edge noise).
+
+    Parameters
+    ----------
+    edges : (H, W) bool
+    orientation_rad : (H, W) float32
+        Edge-normal direction per pixel.
+    offset_uv_px : (int, int)
+        Full-image ``(u, v)`` of pixel ``[0, 0]``.
+    """
+    edges_u8 = np.where(edges, np.uint8(255), np.uint8(0))
     # distanceTransform measures the distance to the nearest *zero* pixel: edges become 0.
     distance, labels = cv2.distanceTransformWithLabels(
         cv2.bitwise_not(edges_u8), cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL)
-    edges = edges_u8 > 0
     flat = np.flatnonzero(edges)
-    width = gray.shape[1]
+    width = edges.shape[1]
     edge_uv = np.empty((flat.size, 2), dtype=np.int32)
     edge_uv[:, 0] = flat % width + offset_uv_px[0]
     edge_uv[:, 1] = flat // width + offset_uv_px[1]
-    return EdgeMap(edges=edges, orientation_rad=orientation, distance_px=distance,
-                   labels=labels, edge_uv_px=edge_uv,
+    return EdgeMap(edges=np.asarray(edges, bool), orientation_rad=orientation_rad,
+                   distance_px=distance, labels=labels, edge_uv_px=edge_uv,
                    offset_uv_px=(int(offset_uv_px[0]), int(offset_uv_px[1])))
 
 

@@ -6,6 +6,8 @@ import numpy as np
 
 from hand_tracker_ros.synthetic.edge_noise import EdgeNoiseConfig, add_edge_noise
 
+ON = EdgeNoiseConfig(enabled=True)
+
 
 def _circle_edges() -> tuple[np.ndarray, np.ndarray]:
     img = np.zeros((240, 320), np.uint8)
@@ -16,8 +18,8 @@ def _circle_edges() -> tuple[np.ndarray, np.ndarray]:
 
 def test_noise_adds_and_removes_and_is_deterministic() -> None:
     edges, angle = _circle_edges()
-    noisy, noisy_angle = add_edge_noise(edges, angle, np.random.default_rng(4))
-    again, _ = add_edge_noise(edges, angle, np.random.default_rng(4))
+    noisy, noisy_angle = add_edge_noise(edges, angle, np.random.default_rng(4), ON)
+    again, _ = add_edge_noise(edges, angle, np.random.default_rng(4), ON)
     np.testing.assert_array_equal(noisy, again)
     removed = edges & ~noisy
     added = noisy & ~edges
@@ -30,7 +32,7 @@ def test_noise_adds_and_removes_and_is_deterministic() -> None:
 def test_stroke_orientation_is_the_curve_normal() -> None:
     edges = np.zeros((200, 200), bool)
     angle = np.zeros((200, 200), np.float32)
-    cfg = EdgeNoiseConfig(strokes_per_10k_px=3.0, blobs_per_10k_px=0.0, gap_fraction=0.0)
+    cfg = EdgeNoiseConfig(enabled=True, strokes_per_10k_px=3.0, blobs_per_10k_px=0.0, gap_fraction=0.0)
     noisy, noisy_angle = add_edge_noise(edges, angle, np.random.default_rng(1), cfg)
     # Oracle: the structure tensor of the drawn strokes; its dominant direction is the normal.
     img = noisy.astype(np.float32)

@@ -1,0 +1,104 @@
+"""From a rosbag2 to synchronized multi-camera frame sets, calibration and ground truth.
+
+The offline path uses the same approximate-time synchronizer as the live tracker node, so
+jittered, dropped or late camera frames in a bag are handled exactly as they would be live.
+Images that cannot be decoded are logged and dropped (the set they belonged to is then not
+complete and is skipped, and counted by the synchronizer).
+"""
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hand_tracker_ros._typing import UInt8Array
+from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues,
+                                           camera_info_from_msg,
+                                           hand_state_from_msg, image_from_msg)
+from hand_tracker_ros.bags.reader import BagReader
+from hand_tracker_ros.errors import CalibrationError, HandTrackerError
+from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.rig import CameraRig
+from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig
+from hand_tracker_ros.synthetic.writer import GT_STATE_TOPIC, image_topic, info_topic
+
+LOG = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class FrameSet:
+    """One synchronized set of camera images (rgb8), in rig camera order."""
+
+    stamp_ns: int
+    images: tuple[UInt8Array, ...]
+
+
+def load_rig(bag: str | Path, rig_path: str | Path | None = None) -> CameraRig:
+    """The rig of a bag: ``rig_path`` or ``rig.yaml`` beside the bag, checked against the
+    bag's ``camera_info`` (image size and intrinsics must agree)."""
+    bag = Path(bag)
+    path = Path(rig_path) if rig_path else bag.parent / 'rig.yaml'
+    if not path.is_file():
+        msg = (f'no rig calibration for {bag}: {path} does not exist (pass --rig with the '
+               'rig YAML holding the cameras\' intrinsics and extrinsics)')
+        raise CalibrationError(msg)
+    rig = CameraRig.from_yaml(path)
+    with BagReader(bag) as reader:
+        topics = reader.topics
+        missing = [c.name for c in rig.cameras if image_topic(c.name) not in topics]
+        if missing:
+            msg = f'{bag}: no image topic for camera(s) {missing} of rig {path}'
+            raise CalibrationError(msg)
+        seen: set[str] = set()
+        infos = [info_topic(c.name) for c in rig.cameras if info_topic(c.name) in topics]
+        for topic, _, _, msg in reader.decoded(topics=infos):
+            if topic in seen:
+                continue
+            seen.add(topic)
+            _check_info(rig[topic.split('/')[1]], camera_info_from_msg(msg), topic)
+    return rig
+
+
+def _check_info(camera: PinholeCamera, info: CameraInfoValues, topic: str) -> None:
+    if (info.width, info.height) != (camera.width, camera.height):
+        msg = (f'{topic}: camera_info says {info.width}x{info.height} but the rig says '
+               f'{camera.width}x{camera.height}')
+        raise CalibrationError(msg)
+    if not np.allclose(info.K, camera.K, rtol=1e-6, atol=1e-6):
+        msg = f'{topic}: camera_info K differs from the rig calibration'
+        raise CalibrationError(msg)
+
+
+def frame_sets(bag: str | Path, rig: CameraRig, *, sync: SyncConfig = SyncConfig()
+               ) -> Iterator[FrameSet]:
+    """Synchronized image sets of ``rig``'s cameras, in time order."""
+    names = rig.names
+    topics = {image_topic(n): n for n in names}
+    synchronizer = ApproximateTimeSync(names, sync)
+    with BagReader(bag) as reader:
+        for topic, _, stamp, msg in reader.decoded(topics=list(topics)):
+            try:
+                image = image_from_msg(msg, topic=topic)
+            except HandTrackerError as err:
+                LOG.warning('dropping a frame: %s', err)
+                continue
+            camera = rig[topics[topic]]
+            if image.shape[:2] != (camera.height, camera.width):
+                LOG.warning('%s: dropping a %dx%d image, calibration says %dx%d', topic,
+                            image.shape[1], image.shape[0], camera.width, camera.height)
+                continue
+            for synced in synchronizer.add(topics[topic], stamp, image):
+                yield FrameSet(synced.stamp_ns, tuple(synced.items[n] for n in names))
+
+
+def ground_truth(bag: str | Path) -> dict[int, HandStateValues]:
+    """Ground-truth hand states of a synthetic bag, by stamp (empty if the bag has none)."""
+    with BagReader(bag) as reader:
+        if GT_STATE_TOPIC not in reader.topics:
+            return {}
+        return {stamp: hand_state_from_msg(msg)
+                for _, _, stamp, msg in reader.decoded(topics=[GT_STATE_TOPIC])}
+
