@@ -1,0 +1,246 @@
+"""Silhouette term Sil: closest data-silhouette pixel, point-to-ray residuals, fitting."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from hand_tracker_ros.energies.silhouette import (SilhouetteConfig, SilhouetteEnergy,
+                                                  nearest_foreground)
+from hand_tracker_ros.errors import ShapeError
+from hand_tracker_ros.geometry.rig import CameraRig
+from hand_tracker_ros.model.layout import PARAM_NAMES
+from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
+from hand_tracker_ros.render.background import make_background
+from hand_tracker_ros.render.contours import MeshEdges
+from hand_tracker_ros.render.rasterizer import render
+from hand_tracker_ros.render.shading import render_rgb
+from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
+                                                    SalientDetections)
+from hand_tracker_ros.tracking.views import RoundContext, model_views
+from hand_tracker_ros.vision.features import CameraFeatures, FeatureExtractor, FeaturesConfig
+from hand_tracker_ros.vision.mask import MaskConfig
+
+_TRANSLATION = (0.0, -0.08, -0.02)
+# Tau small enough that the first LM steps are not over-damped on the finger columns.
+_LM = LMConfig(max_iterations=5, tau=1e-9)
+
+
+def _with_mask(features: CameraFeatures, mask: np.ndarray,
+               roi: tuple[int, int, int, int] | None = None) -> CameraFeatures:
+    return CameraFeatures(features.camera_name, features.stamp_ns, features.edges, mask,
+                          None, features.gray, roi or features.roi_px, features.image_size_px)
+
+
+def test_nearest_foreground_exact_on_a_box_with_cap_and_roi() -> None:
+    mask = np.zeros((40, 60), bool)
+    mask[10:20, 30:40] = True                      # ROI pixels; full image = ROI + (100, 50)
+    features = CameraFeatures('c', 0, None, mask, None, np.zeros((40, 60), np.uint8),
+                              (100, 50, 160, 90), (320, 240))
+    uv = np.array([[125.2, 65.0], [135.0, 55.4], [145.0, 75.0], [90.0, 65.0], [132, 62]])
+    pixel, found = nearest_foreground(features, uv, 12.0)
+    np.testing.assert_array_equal(found, [True, True, True, False, True])
+    np.testing.assert_array_equal(pixel[:3], [[130, 65], [135, 60], [139, 69]])
+    np.testing.assert_array_equal(pixel[4], [132, 62])   # inside: itself
+    empty = _with_mask(features, np.zeros_like(mask))
+    assert not nearest_foreground(empty, uv, 12.0)[1].any()
+    assert nearest_foreground(features, np.zeros((0, 2)), 12.0)[0].shape == (0, 2)
+
+
+# --- rendered data ------------------------------------------------------------------------
+
+@pytest.fixture(scope='module')
+def scene(hand_model):
+    rig = CameraRig.ring(2, 320, 240)
+    edges = MeshEdges.from_faces(hand_model.faces)
+    truth = hand_model.neutral_theta(_TRANSLATION)
+    posed = hand_model.pose(truth, jacobian=False)
+    cams = []
+    for i, cam in enumerate(rig):
+        raster = render(cam, posed.vertices_m, hand_model.faces)
+        image = render_rgb(cam, posed.vertices_m, hand_model.faces, posed.vertex_normals,
+                           make_background(320, 240, seed=i), raster=raster)
+        extractor = FeatureExtractor(cam.name, FeaturesConfig(
+            mask=MaskConfig(method='provided'), flow_enabled=False))
+        cams.append(CameraObservation(cam, extractor.process(image, 0, raster.mask),
+                                      SalientDetections.empty()))
+    return hand_model, rig, edges, truth, FrameObservations(0, tuple(cams))
+
+
+def _context(scene, theta: np.ndarray, observations: FrameObservations | None = None
+             ) -> RoundContext:
+    model, rig, edges, _, obs = scene
+    posed = model.pose(theta)
+    return RoundContext(posed, model_views(posed, model.faces, edges, list(rig)),
+                        observations or obs, None)
+
+
+def _fit(scene, energy: SilhouetteEnergy, theta: np.ndarray, free: np.ndarray,
+         rounds: int) -> np.ndarray:
+    model = scene[0]
+    for _ in range(rounds):
+        corr = energy.correspond(_context(scene, theta))
+
+        def fun(x, jac, corr=corr):
+            posed = model.pose(x, jacobian=jac)
+            return energy.linearize(posed, corr) if jac else (energy.residuals(posed, corr),
+                                                             None)
+
+        theta = levenberg_marquardt(fun, theta, model.lower, model.upper, free=free,
+                                    config=_LM).x
+    return theta
+
+
+def _keypoint_error_mm(model, theta: np.ndarray, truth: np.ndarray) -> float:
+    diff = model.pose(theta, jacobian=False).keypoints_m - model.pose(truth,
+                                                                      jacobian=False).keypoints_m
+    return 1e3 * float(np.linalg.norm(diff, axis=1).mean())
+
+
+def _perturbed(truth: np.ndarray) -> np.ndarray:
+    theta = truth.copy()
+    theta[:6] += [0.006, -0.004, 0.003, 0.05, -0.04, 0.03]
+    return theta
+
+
+def test_jacobian_matches_central_differences(scene) -> None:
+    model, *_, truth, _ = scene
+    theta = _perturbed(truth) + np.random.default_rng(2).normal(0.0, 0.02, truth.size)
+    energy = SilhouetteEnergy.from_model(SilhouetteConfig(), model)
+    corr = energy.correspond(_context(scene, theta))
+    assert corr.n_residuals > 100
+    r, J = energy.linearize(model.pose(theta), corr)
+    assert r.shape == (corr.n_residuals,) and J.shape == (r.size, theta.size)
+    h = 1e-6
+    numeric = np.column_stack([
+        (energy.residuals(model.pose(theta + h * e, jacobian=False), corr)
+         - energy.residuals(model.pose(theta - h * e, jacobian=False), corr)) / (2 * h)
+        for e in np.eye(theta.size)])
+    np.testing.assert_allclose(J, numeric, rtol=1e-5, atol=1e-7)
+
+
+def test_residual_is_the_distance_to_the_ray_of_a_silhouette_pixel(scene) -> None:
+    model, rig, _, truth, obs = scene
+    theta = _perturbed(truth)
+    energy = SilhouetteEnergy.from_model(SilhouetteConfig(max_points_per_camera=10000,
+                                                          data_to_model=False), model)
+    ctx = _context(scene, theta)
+    corr = energy.correspond(ctx)
+    posed = ctx.posed
+    r = energy.residuals(posed, corr)
+    assert np.all(r > 0) and np.all(r < 0.03)                       # metres
+    foot = posed.vertices_m[corr.vertex_ids] - r[:, None] * corr.normals
+    for cam, cam_obs in zip(rig, obs.cameras):
+        rows = np.flatnonzero(np.all(np.isclose(corr.ray_origins_m, cam.center_world), axis=1))
+        assert rows.size > 0
+        uv_foot, _ = cam.project(foot[rows])
+        uv_model, _ = cam.project(posed.vertices_m[corr.vertex_ids[rows]])
+        assert not cam_obs.features.mask_at(uv_model).any()         # model points outside
+        fg = np.argwhere(cam_obs.features.mask)[:, ::-1]            # (u, v) of foreground
+        gap = np.min(np.linalg.norm(uv_foot[:, None] - fg[None], axis=2), axis=1)
+        np.testing.assert_allclose(gap, 0.5, atol=1e-6)  # on the pixel edge of the silhouette
+        np.testing.assert_allclose(np.einsum('ni,ni->n', corr.normals[rows],
+                                             foot[rows] - cam.center_world), 0, atol=1e-12)
+
+
+def test_data_to_model_rows_reach_uncovered_silhouette_pixels(scene) -> None:
+    _, _, _, truth, obs = scene
+    theta = _perturbed(truth)
+    one_way = SilhouetteConfig(max_points_per_camera=10000, data_to_model=False)
+    both = SilhouetteConfig(max_points_per_camera=10000, data_to_model=True)
+    ctx = _context(scene, theta)
+    n_model = SilhouetteEnergy(one_way).correspond(ctx).n_residuals
+    corr = SilhouetteEnergy(both).correspond(ctx)
+    rows = np.arange(n_model, corr.n_residuals)
+    assert rows.size > 50
+    r = SilhouetteEnergy(both).residuals(ctx.posed, corr)[rows]
+    np.testing.assert_array_less(0.0, r)
+    foot = ctx.posed.vertices_m[corr.vertex_ids[rows]] - r[:, None] * corr.normals[rows]
+    for view, cam_obs in zip(ctx.views, obs.cameras):
+        mine = np.all(np.isclose(corr.ray_origins_m[rows], view.camera.center_world), axis=1)
+        uv_foot, _ = view.camera.project(foot[mine])
+        # Data silhouette pixels the model does not cover, half a pixel inside the boundary.
+        data = cam_obs.features.mask & ~cv2.erode(cam_obs.features.mask.astype(np.uint8),
+                                                  np.ones((3, 3), np.uint8)).astype(bool)
+        fg = np.argwhere(data & ~view.raster.mask)[:, ::-1]
+        gap = np.min(np.linalg.norm(uv_foot[:, None] - fg[None], axis=2), axis=1)
+        np.testing.assert_allclose(gap, 0.5, atol=1e-6)
+
+
+def test_data_to_model_pulls_a_too_small_model_back(scene) -> None:
+    # One camera; the model 4 cm too far away looks smaller than the data silhouette, so
+    # only the data-to-model rows can pull it closer.
+    model, rig, edges, truth, obs = scene
+    one_cam = (model, CameraRig((rig[0],)), edges, truth,
+               FrameObservations(0, obs.cameras[:1]))
+    axis = rig[0].R_cam_world[2]
+    theta = truth.copy()
+    theta[:3] += 0.04 * axis
+    free = np.zeros(truth.size, bool)
+    free[:3] = True
+    errors = []
+    for push in (False, True):
+        energy = SilhouetteEnergy(SilhouetteConfig(data_to_model=push))
+        fitted = _fit(one_cam, energy, theta, free, 4)
+        errors.append(np.linalg.norm(fitted[:3] - truth[:3]))
+    assert errors[0] > 0.03
+    assert errors[1] < 0.01
+
+
+def test_true_pose_has_few_small_residuals(scene) -> None:
+    model, *_, truth, _ = scene
+    energy = SilhouetteEnergy.from_model(SilhouetteConfig(), model)
+    ctx = _context(scene, truth)
+    at_truth = energy.correspond(ctx)
+    off = energy.correspond(_context(scene, _perturbed(truth)))
+    assert at_truth.n_residuals < 0.3 * off.n_residuals
+    assert np.max(np.abs(energy.residuals(ctx.posed, at_truth)), initial=0.0) < 0.003
+
+
+def test_fitting_the_global_pose_reduces_the_error(scene) -> None:
+    model, *_, truth, _ = scene
+    energy = SilhouetteEnergy.from_model(SilhouetteConfig(), model)
+    free = np.zeros(truth.size, bool)
+    free[:6] = True
+    theta = _perturbed(truth)
+    start = _keypoint_error_mm(model, theta, truth)
+    end = _keypoint_error_mm(model, _fit(scene, energy, theta, free, 4), truth)
+    assert start > 5.0
+    assert end < 0.35 * start
+
+
+def test_a_finger_sticking_out_is_pulled_back(scene) -> None:
+    model, *_, truth, _ = scene
+    energy = SilhouetteEnergy.from_model(SilhouetteConfig(), model)
+    finger = [PARAM_NAMES.index(n) for n in ('index_mcp_flex', 'index_mcp_abd')]
+    free = np.zeros(truth.size, bool)
+    free[finger] = True
+    theta = truth.copy()
+    theta[finger] += [-0.25, 0.2]
+    fitted = _fit(scene, energy, theta, free, 3)
+    assert np.linalg.norm(fitted[finger] - truth[finger]) < 0.3 * np.linalg.norm(
+        theta[finger] - truth[finger])
+
+
+def test_empty_mask_hidden_hand_or_disabled_give_no_rows(scene) -> None:
+    model, _, _, truth, obs = scene
+    energy = SilhouetteEnergy.from_model(SilhouetteConfig(), model)
+    blank = FrameObservations(0, tuple(
+        CameraObservation(c.camera, _with_mask(c.features, np.zeros_like(c.features.mask)),
+                          c.tips) for c in obs.cameras))
+    away = truth.copy()
+    away[:3] = (0.0, 0.0, 5.0)   # far outside every view
+    disabled = SilhouetteEnergy.from_model(SilhouetteConfig(enabled=False), model)
+    for term, ctx in [(energy, _context(scene, _perturbed(truth), blank)),
+                      (energy, _context(scene, away)),
+                      (disabled, _context(scene, _perturbed(truth)))]:
+        corr = term.correspond(ctx)
+        r, J = term.linearize(ctx.posed, corr)
+        assert corr.n_residuals == 0 and r.shape == (0,) and J.shape == (0, truth.size)
+
+
+def test_views_and_cameras_must_pair_up(scene) -> None:
+    model, *_, truth, obs = scene
+    ctx = _context(scene, truth, FrameObservations(0, obs.cameras[:1]))
+    with pytest.raises(ShapeError, match='2 model views for 1 cameras'):
+        SilhouetteEnergy.from_model(SilhouetteConfig(), model).correspond(ctx)
