@@ -10,10 +10,10 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from hand_tracker_ros.cli import demo, launch, params, synth
+from hand_tracker_ros.cli import demo, evaluate, launch, params, synth
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (demo, launch, params, synth)
+VERBS = (demo, evaluate, launch, params, synth)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -49,7 +49,8 @@ class CollisionConfig:
     """Switch, weight and cone parameters of the collision term."""
 
     enabled: bool = param(True, 'Use the collision term')
-    weight: float = param(1.0, 'Weight of 0.5 |r|^2 in the total cost', low=0.0)
+    weight: float = param(3e3, 'Weight of 0.5 |r|^2 in the total cost (r in model units; tuned '
+                          'by hand-tracker evaluate)', low=0.0)
     sigma: float = param(0.5, 'Cone height above the receiver face (Ballan: 0.5), in model '
                          'units', low=1e-3, high=0.99)
     model_unit_m: float = param(0.01, 'Length of one model unit: coordinates are divided by '

@@ -71,8 +71,9 @@ class SilhouetteConfig:
     """The 3D silhouette term Sil."""
 
     enabled: bool = param(True, 'use the silhouette term')
-    weight: float = param(1e5, 'term weight (cost = 0.5 * weight * |r|^2, r in m); 1e5 '
-                          'makes 1 mm cost like 0.3 px of an image term', low=0.0, high=1e12)
+    weight: float = param(3e6, 'term weight (cost = 0.5 * weight * |r|^2, r in m); 3e6 '
+                          'makes 1 mm cost like 1.7 px of an image term (tuned by hand-tracker '
+                          'evaluate)', low=0.0, high=1e12)
     max_distance_px: float = param(20.0, 'largest 2D distance from a model point to its '
                                    'closest data-silhouette pixel', unit='px', low=1.0,
                                    high=500.0)

@@ -18,7 +18,9 @@ Motions (names accepted by :func:`trajectory`):
 - ``grasp``: a cylindrical power grasp closes and opens;
 - ``wrist``: pronation/supination and flexion of the wrist while the hand translates;
 - ``random``: smooth random motion of every joint within 80 % of its limits, plus slow
-  global motion, deterministic per seed.
+  global motion, deterministic per seed. Key poses (and the midpoints between consecutive
+  ones) whose mesh self-intersects between non-adjacent parts are redrawn, so the ground
+  truth is free of interpenetration.
 """
 from __future__ import annotations
 
@@ -29,6 +31,8 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.errors import ConfigError
+from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
+from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import FINGERS, PARAM_NAMES, Layout
 from hand_tracker_ros.model.skeleton import joint_limits
 
@@ -75,8 +79,8 @@ def _tapping(duration_s: float) -> list[Keyframe]:
 
 
 def _fist(duration_s: float) -> list[Keyframe]:
-    fist = {**_flexed(FINGERS, 80.0, 95.0, 55.0), 'thumb_cmc_flex': 30.0,
-            'thumb_cmc_abd': 35.0, 'thumb_mcp_flex': 35.0, 'thumb_ip_flex': 25.0}
+    fist = {**_flexed(FINGERS, 75.0, 90.0, 45.0), 'thumb_cmc_flex': 10.0,
+            'thumb_cmc_abd': 30.0, 'thumb_mcp_flex': 20.0, 'thumb_ip_flex': 10.0}
     return _cycle([{}, fist], 0.8, duration_s)
 
 
@@ -102,18 +106,32 @@ def _wrist(duration_s: float) -> list[Keyframe]:
     return [Keyframe(k * 0.8, *poses[k % len(poses)]) for k in range(n)]
 
 
+def _collides(model: HandModel, theta: FloatArray) -> bool:
+    vertices = model.pose(theta, jacobian=False).vertices_m
+    parts = face_parts(model.faces, model.vertex_part)
+    return len(intersecting_pairs(vertices, model.faces, parts, model.adjacent_parts)) > 0
+
+
 def _random(duration_s: float, seed: int) -> list[Keyframe]:
     rng = np.random.default_rng(seed)
+    model = HandModel.build()
     lower, upper = joint_limits()
     mid, half = 0.5 * (lower + upper), 0.4 * (upper - lower)  # 80 % of each range
     times = np.cumsum(np.r_[0.0, rng.uniform(0.4, 0.8, int(duration_s / 0.4) + 2)])
-    frames = []
+    frames: list[Keyframe] = []
     for t in times:
-        angles = np.rad2deg(mid + half * rng.uniform(-1.0, 1.0, len(PARAM_NAMES)))
-        joints = {n: float(a) for n, a in zip(PARAM_NAMES[6:], angles[6:])}
-        joints |= {'hand_ry': float(BASE_ROTATION_DEG['hand_ry'] + rng.uniform(-40, 40)),
-                   'hand_rx': float(rng.uniform(-25, 25)), 'hand_rz': float(rng.uniform(-15, 15))}
-        frames.append(Keyframe(float(t), joints, tuple(rng.uniform(-0.03, 0.03, 3))))
+        for _ in range(200):
+            angles = np.rad2deg(mid + half * rng.uniform(-1.0, 1.0, len(PARAM_NAMES)))
+            joints = {n: float(a) for n, a in zip(PARAM_NAMES[6:], angles[6:])}
+            joints |= {'hand_ry': float(BASE_ROTATION_DEG['hand_ry'] + rng.uniform(-40, 40)),
+                       'hand_rx': float(rng.uniform(-25, 25)),
+                       'hand_rz': float(rng.uniform(-15, 15))}
+            frame = Keyframe(float(t), joints, tuple(rng.uniform(-0.03, 0.03, 3)))
+            theta = keyframe_theta(frame)
+            middle = None if not frames else 0.5 * (theta + keyframe_theta(frames[-1]))
+            if not _collides(model, theta) and (middle is None or not _collides(model, middle)):
+                break
+        frames.append(frame)
     return frames
 
 

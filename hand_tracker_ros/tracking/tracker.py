@@ -24,11 +24,12 @@ from typing import Any
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.config import nested
+from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
+from hand_tracker_ros.optim.pso import PSOConfig, particle_swarm
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.tracking.energies import TermsConfig, build_terms
 from hand_tracker_ros.tracking.health import FailureConfig, silhouette_agreement
@@ -52,8 +53,11 @@ class TrackStatus(IntEnum):
 class TrackerConfig:
     """Everything the tracking loop needs."""
 
+    solver: str = param('lm', 'Levenberg-Marquardt (the method) or PSO (the HOPE baseline)',
+                        choices=('lm', 'pso'))
     schedule: ScheduleConfig = nested(ScheduleConfig)
     lm: LMConfig = nested(LMConfig)
+    pso: PSOConfig = nested(PSOConfig)
     terms: TermsConfig = nested(TermsConfig)
     failure: FailureConfig = nested(FailureConfig)
 
@@ -107,11 +111,13 @@ class HandTracker:
         self._previous = PreviousFrame(posed, self.views(posed), theta[None].copy())
 
     def _solve_round(self, theta: FloatArray, free: np.ndarray, use_flow: bool,
-                     observations: FrameObservations, timings: dict[str, float]
+                     observations: FrameObservations, timings: dict[str, float],
+                     start_views: tuple[ModelView, ...] | None = None
                      ) -> tuple[FloatArray, int, Problem, tuple[Any, ...]]:
         start = time.perf_counter()
         posed = self.model.pose(theta, jacobian=False)
-        context = RoundContext(posed, self.views(posed), observations, self._previous)
+        views = start_views if start_views is not None else self.views(posed)
+        context = RoundContext(posed, views, observations, self._previous)
         terms = [t for t in self._terms if use_flow or t.name != 'flow']
         problem = Problem(self.model, terms)
         mid = time.perf_counter()
@@ -129,6 +135,27 @@ class HandTracker:
         timings['solve'] = timings.get('solve', 0.0) + time.perf_counter() - t0
         return result.x, result.n_iterations, problem, tuple(correspondences)
 
+    def _solve_pso(self, theta: FloatArray, observations: FrameObservations,
+                   timings: dict[str, float]) -> tuple[FloatArray, int, Problem, tuple[Any, ...]]:
+        """The HOPE baseline: PSO on the same objective, re-anchored every generation."""
+        problem = Problem(self.model, self._terms)
+        anchor_corrs: list[tuple[Any, ...]] = []
+
+        def cost_at(anchor: FloatArray) -> Any:
+            posed = self.model.pose(anchor, jacobian=False)
+            context = RoundContext(posed, self.views(posed), observations, self._previous)
+            anchor_corrs.append(problem.correspond(context))
+            fun = problem.function(anchor_corrs[-1])
+            return lambda X: np.array([0.5 * float(r @ r) for r in (fun(x, False)[0] for x in X)])
+
+        start = time.perf_counter()
+        # HOPE's per-parameter spreads: 10 mm for the position, 0.1 for every angle.
+        spread = np.where(Layout.prismatic, 0.01, 0.1)
+        result = particle_swarm(cost_at, theta, self.model.lower, self.model.upper, spread,
+                                config=self.config.pso)
+        timings['solve'] = time.perf_counter() - start
+        return result.x, result.evaluations, problem, anchor_corrs[-1]
+
     def _lm_config(self) -> LMConfig:
         lm = self.config.lm
         return LMConfig(max_iterations=self.config.schedule.iterations, tau=lm.tau,
@@ -145,9 +172,15 @@ class HandTracker:
         theta = self._previous.thetas[-1].copy()
         iterations = 0
         problem, correspondences = None, ()
-        for rnd in self._rounds:
+        if self.config.solver == 'pso':
+            theta, iterations, problem, correspondences = self._solve_pso(theta, observations,
+                                                                         timings)
+        # The first round starts at the previous estimate, whose views are already rendered.
+        start_views: tuple[ModelView, ...] | None = self._previous.views
+        for rnd in self._rounds if self.config.solver == 'lm' else ():
             theta, n_iter, problem, correspondences = self._solve_round(
-                theta, rnd.free, rnd.use_flow, observations, timings)
+                theta, rnd.free, rnd.use_flow, observations, timings, start_views)
+            start_views = None
             iterations += n_iter
         assert problem is not None
         posed = self.model.pose(theta, jacobian=False)

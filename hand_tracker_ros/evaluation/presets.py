@@ -1,0 +1,54 @@
+"""The configurations of the ablation (Ballan et al., Table 1 and supplementary Figs. 1-2).
+
+Every configuration tracks with the same pipeline and differs only in its energy terms or
+solver. ``LO`` is the local optimizer: warm-started box-constrained Levenberg-Marquardt with the
+temporal prior T (a regulariser of the optimizer, present in every LO row, so the rows differ
+exactly by the data terms the paper ablates). Joint limits are hard bounds in every row; the
+full method adds the joint-limit energy L and the 3D silhouette term Sil of the second seed.
+
+=========  =========================================================
+name       terms
+=========  =========================================================
+LO+E       edges
+LO+EC      edges, collision
+LO+ECO     edges, collision, optical flow
+LO+ECOS    edges, collision, optical flow, salient points
+full       LO+ECOS + joint limits L + silhouette Sil
+PSO        the full objective minimised by HOPE's PSO instead of LM
+=========  =========================================================
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from hand_tracker_ros.config import flatten, from_mapping
+from hand_tracker_ros.pipeline.offline import PipelineConfig
+
+TERMS = ('edges', 'flow', 'salient', 'collision', 'limits', 'silhouette', 'temporal')
+ABLATION = {
+    'LO+E': ('edges', 'temporal'),
+    'LO+EC': ('edges', 'collision', 'temporal'),
+    'LO+ECO': ('edges', 'collision', 'flow', 'temporal'),
+    'LO+ECOS': ('edges', 'collision', 'flow', 'salient', 'temporal'),
+    'full': TERMS,
+}
+# PSO gets about the time budget of the full LM method: particles x generations objective
+# evaluations of ~2-3 ms each plus one correspondence search per generation.
+PSO_BUDGET = {'tracker.pso.particles': 16, 'tracker.pso.generations': 5}
+
+
+def preset(name: str, base: PipelineConfig, overrides: dict[str, Any] | None = None
+           ) -> PipelineConfig:
+    """The pipeline config of ablation row ``name`` on top of ``base``."""
+    values = flatten(base)
+    if name == 'PSO':
+        values.update({**PSO_BUDGET, 'tracker.solver': 'pso'})
+        enabled = TERMS
+    else:
+        enabled = ABLATION[name]
+    values.update({f'tracker.terms.{t}.enabled': t in enabled for t in TERMS})
+    values.update(overrides or {})
+    return from_mapping(PipelineConfig, values)
+
+
+NAMES = (*ABLATION, 'PSO')
