@@ -102,17 +102,23 @@ def project_vertices(camera: PinholeCamera, posed: Any, vertex_ids: IntArray, *,
 
 def _block_rows(posed: Any, block: ImageTargets, jacobian: bool
                 ) -> tuple[FloatArray, FloatArray | None]:
-    uv, duv = project_vertices(block.camera, posed, block.vertex_ids, jacobian=jacobian)
-    diff = uv - block.targets_px
     s = block.sqrt_weights
-    if block.normals_px is not None:
-        n = block.normals_px
-        r = s * np.einsum('ni,ni->n', n, diff)
-        J = None if duv is None else s[:, None] * np.einsum('ni,nip->np', n, duv)
+    if block.normals_px is None:
+        uv, duv = project_vertices(block.camera, posed, block.vertex_ids, jacobian=jacobian)
+        r = (s[:, None] * (uv - block.targets_px)).ravel()
+        J = None if duv is None else (s[:, None, None] * duv).reshape(-1, duv.shape[2])
         return r, J
-    r = (s[:, None] * diff).ravel()
-    J = None if duv is None else (s[:, None, None] * duv).reshape(-1, duv.shape[2])
-    return r, J
+    # Point-to-line rows: contract the normal into d(uv)/dX first, n^T (duv/dX) (N, 3), so
+    # the chain rule with the (N, 3, P) vertex Jacobian forms no (N, 2, P) intermediate.
+    n = block.normals_px
+    points = posed.vertices_m[block.vertex_ids]
+    if not jacobian:
+        uv = block.camera.project(points)[0]
+        return s * np.einsum('ni,ni->n', n, uv - block.targets_px), None
+    uv, _, duv_dX = block.camera.project_jacobian(points)
+    g = s[:, None] * np.einsum('ni,nij->nj', n, duv_dX)
+    r = s * np.einsum('ni,ni->n', n, uv - block.targets_px)
+    return r, np.einsum('nj,njp->np', g, posed.vertices_jac[block.vertex_ids])
 
 
 def image_residuals(posed: Any, blocks: Sequence[ImageTargets]) -> FloatArray:

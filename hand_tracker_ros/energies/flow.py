@@ -50,7 +50,7 @@ class FlowEnergyConfig:
     enabled: bool = param(True, 'use the optical-flow term')
     weight: float = param(1.0, 'term weight (cost = 0.5 * weight * |r|^2, r in px)',
                           low=0.0, high=1e6)
-    max_points: int = param(300, 'largest number of flow targets per camera', low=1,
+    max_points: int = param(150, 'largest number of flow targets per camera', low=1,
                             high=100000)
     outlier_factor: float = param(2.0, 'drop targets farther than this times their bone\'s '
                                   'mean displacement (Ballan: 2)', low=1.0, high=100.0)

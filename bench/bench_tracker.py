@@ -1,0 +1,58 @@
+"""Per-frame cost of the full method, split by stage, at 4 x 320x240 and 4 x 640x480.
+
+Usage: python bench/bench_tracker.py [--frames N] [--pso]
+Stages: features (edges, mask, flow; 2-thread pool), detection, views (render + contours of the
+model in every camera, per round), correspondences per term (collision = triangle-pair search),
+LM solves. Medians over the frames after a warm-up frame.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+from collections import defaultdict
+
+from hand_tracker_ros.config import from_mapping
+from hand_tracker_ros.evaluation.runner import _detector
+from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.pipeline.frames import FrameSet
+from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
+
+
+def bench(width: int, height: int, frames: int, overrides: dict) -> None:
+    model = HandModel.build()
+    seq = SyntheticSequence(SynthConfig(motion='random', n_frames=frames + 2, width=width,
+                                        height=height), model)
+    shots = [seq.frame(k) for k in range(frames + 2)]
+    pipe = OfflinePipeline(model, seq.rig, from_mapping(PipelineConfig, overrides),
+                           detector=_detector())
+    pipe.tracker.reset(shots[0].theta)
+    pipe.step(FrameSet(shots[1].stamp_ns, shots[1].images))  # warm-up (numba caches, pools)
+    stages = defaultdict(list)
+    for shot in shots[2:]:
+        result = pipe.step(FrameSet(shot.stamp_ns, shot.images))
+        for key, seconds in result.timings_s.items():
+            stages[key].append(1e3 * seconds)
+    pipe.close()
+    label = overrides.get('tracker.solver', 'lm')
+    print(f'\n{label} at 4 x {width}x{height}, {frames} frames (median ms per frame):')
+    for key in sorted(stages, key=lambda k: (k == 'total', k)):
+        values = stages[key]
+        print(f'  {key:24s} {statistics.median(values):7.1f}   (min {min(values):.1f}, '
+              f'max {max(values):.1f})')
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument('--frames', type=int, default=30)
+    parser.add_argument('--pso', action='store_true', help='also time the PSO baseline')
+    args = parser.parse_args()
+    for width, height in ((320, 240), (640, 480)):
+        bench(width, height, args.frames, {})
+    if args.pso:
+        bench(320, 240, args.frames, {'tracker.solver': 'pso', 'tracker.pso.particles': 16,
+                                      'tracker.pso.generations': 5})
+
+
+if __name__ == '__main__':
+    main()
