@@ -47,6 +47,7 @@ def preset(name: str, base: PipelineConfig, overrides: dict[str, Any] | None = N
     else:
         enabled = ABLATION[name]
     values.update({f'tracker.terms.{t}.enabled': t in enabled for t in TERMS})
+    values['auto_initialize'] = False   # the runner re-initialises from ground truth
     values.update(overrides or {})
     return from_mapping(PipelineConfig, values)
 

@@ -20,6 +20,7 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.synthetic.edge_noise import EdgeNoiseConfig, add_edge_noise
+from hand_tracker_ros.tracking.initialize import InitConfig, initialize
 from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
                                                     SalientDetections)
 from hand_tracker_ros.tracking.tracker import HandTracker, TrackerConfig, TrackResult
@@ -35,6 +36,9 @@ class PipelineConfig:
 
     features: FeaturesConfig = nested(FeaturesConfig)
     tracker: TrackerConfig = nested(TrackerConfig)
+    init: InitConfig = nested(InitConfig)
+    auto_initialize: bool = param(True, 'find the hand from the observations on the first frame '
+                                  'and after failure.reinit_after lost frames')
     edge_noise: EdgeNoiseConfig = nested(EdgeNoiseConfig)
     edge_noise_seed: int = param(0, 'seed of the structured edge noise', low=0)
 
@@ -80,8 +84,18 @@ class OfflinePipeline:
                                                              'detection': end - mid}
 
     def step(self, frames: FrameSet) -> TrackResult:
-        """Observe and track one frame set (the tracker must be initialized)."""
+        """Observe and track one frame set.
+
+        With ``auto_initialize`` the hand is searched for (:mod:`..tracking.initialize`) on the
+        first frame and after ``failure.reinit_after`` consecutive lost frames; otherwise the
+        tracker must have been reset to a pose.
+        """
         observations, timings = self.observe(frames)
+        lost = self.tracker.lost_frames >= self.config.tracker.failure.reinit_after
+        if self.config.auto_initialize and (not self.tracker.initialized or lost):
+            start = time.perf_counter()
+            initialize(self.tracker, observations, self.config.init)
+            timings['initialize'] = time.perf_counter() - start
         result = self.tracker.track(observations)
         result.timings_s.update(timings)
         result.timings_s['total'] += sum(timings.values())
