@@ -10,10 +10,10 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from hand_tracker_ros.cli import demo, evaluate, launch, params, synth
+from hand_tracker_ros.cli import demo, evaluate, launch, params, synth, track
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (demo, evaluate, launch, params, synth)
+VERBS = (demo, evaluate, launch, params, synth, track)
 
 
 def build_parser() -> argparse.ArgumentParser:

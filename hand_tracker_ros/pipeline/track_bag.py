@@ -1,0 +1,90 @@
+"""Track a whole bag offline and write the estimates as a rosbag2.
+
+Output topics (mcap): ``/hand/joint_states`` (sensor_msgs/JointState, only for frames judged
+TRACKING, as the live node publishes) and ``/hand/state`` (hand_tracker_msgs/HandState, every
+frame, with its status). Stamps are the input sets' stamps.
+"""
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hand_tracker_ros.bags.convert import HandStateValues, hand_state_msg, joint_state_msg
+from hand_tracker_ros.bags.writer import BagWriter
+from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.model.layout import PARAM_NAMES
+from hand_tracker_ros.model.shape import SHAPE_NAMES
+from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
+from hand_tracker_ros.pipeline.frames import frame_sets, ground_truth, load_rig
+from hand_tracker_ros.pipeline.offline import Detector, OfflinePipeline, PipelineConfig
+from hand_tracker_ros.tracking.tracker import TrackResult, TrackStatus
+
+LOG = logging.getLogger(__name__)
+JOINTS_TOPIC = '/hand/joint_states'
+STATE_TOPIC = '/hand/state'
+
+
+@dataclass(frozen=True, eq=False)
+class TrackedFrame:
+    """One frame's estimate and, for synthetic bags, its ground-truth keypoints."""
+
+    result: TrackResult
+    truth_keypoints_m: np.ndarray | None
+
+
+def hand_state_values(result: TrackResult, model: HandModel, world_frame: str
+                      ) -> HandStateValues:
+    """The HandState of one estimate."""
+    names = tuple(result.energy_costs)
+    return HandStateValues(
+        stamp_ns=result.stamp_ns, frame_id=world_frame, status=int(result.status),
+        joint_names=PARAM_NAMES, joint_positions=result.theta, keypoint_names=KEYPOINT_NAMES,
+        keypoints_m=result.posed.keypoints_m, fingertips_m=result.posed.fingertips_m,
+        shape_names=SHAPE_NAMES, shape_parameters=model.shape.to_vector(),
+        energy_names=names, energy_costs=np.array([result.energy_costs[n] for n in names]),
+        iterations=result.iterations, processing_time_s=result.timings_s.get('total', 0.0))
+
+
+def track_bag(bag: str | Path, *, rig_path: str | Path | None = None,
+              config: PipelineConfig = PipelineConfig(), detector: Detector | None = None,
+              init_from_ground_truth: bool = False) -> Iterator[TrackedFrame]:
+    """Estimates of every synchronized frame set of ``bag``, in order."""
+    rig = load_rig(bag, rig_path)
+    truth = ground_truth(bag)
+    model = HandModel.build()
+    pipeline = OfflinePipeline(model, rig, config, detector)
+    try:
+        for frames in frame_sets(bag, rig):
+            gt = truth.get(frames.stamp_ns)
+            if init_from_ground_truth and not pipeline.tracker.initialized:
+                if gt is None:
+                    msg = f'{bag}: no ground truth at {frames.stamp_ns} to initialise from'
+                    raise ValueError(msg)
+                pipeline.tracker.reset(np.asarray(gt.joint_positions))
+            result = pipeline.step(frames)
+            yield TrackedFrame(result, None if gt is None else gt.keypoints_m)
+    finally:
+        pipeline.close()
+
+
+def write_estimates(frames: Iterator[TrackedFrame], out: str | Path, world_frame: str,
+                    model: HandModel) -> list[TrackedFrame]:
+    """Write the estimates to the rosbag2 ``out``; return the frames."""
+    done = []
+    with BagWriter(out) as writer:
+        writer.add_topic(JOINTS_TOPIC, 'sensor_msgs/msg/JointState')
+        writer.add_topic(STATE_TOPIC, 'hand_tracker_msgs/msg/HandState')
+        for frame in frames:
+            result = frame.result
+            if result.status == TrackStatus.TRACKING:
+                writer.write(JOINTS_TOPIC, result.stamp_ns,
+                             joint_state_msg(result.stamp_ns, PARAM_NAMES, result.theta,
+                                             world_frame))
+            writer.write(STATE_TOPIC, result.stamp_ns,
+                         hand_state_msg(hand_state_values(result, model, world_frame)))
+            done.append(frame)
+    return done
