@@ -63,6 +63,9 @@ def declare_config(node: Node, cls: type[T], *, read_only: tuple[str, ...] = (),
         fixed = on_change is None or name in read_only
         node.declare_parameter(name, value, _descriptor(name, meta[name], default, fixed))
     current = {name: node.get_parameter(name).value for name in defaults}
+    # rcl cannot type an empty YAML list: it comes back unset (None), meaning the empty list.
+    current = {n: defaults[n] if v is None and isinstance(defaults[n], tuple) else v
+               for n, v in current.items()}
     try:
         config = from_mapping(cls, current)
     except ConfigError as err:
