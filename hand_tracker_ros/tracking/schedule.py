@@ -22,10 +22,10 @@ from hand_tracker_ros.model.layout import Layout
 class ScheduleConfig:
     """Rounds of one frame."""
 
-    coarse_rounds: int = param(0, 'rounds with the distal finger joints frozen (Ballan: 10)',
+    coarse_rounds: int = param(1, 'rounds with the distal finger joints frozen (Ballan: 10)',
                                low=0, high=100)
-    full_rounds: int = param(2, 'rounds with every DOF free (Ballan: 20)', low=1, high=100)
-    iterations: int = param(5, 'LM iterations per round (Ballan: 10)', low=1, high=100)
+    full_rounds: int = param(3, 'rounds with every DOF free (Ballan: 20)', low=1, high=100)
+    iterations: int = param(4, 'LM iterations per round (Ballan: 10)', low=1, high=100)
     flow_fraction: float = param(0.25, 'fraction of the rounds that use optical flow',
                                  low=0.0, high=1.0)
 
