@@ -8,7 +8,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from hand_tracker_ros.bags.playback import PlaybackConfig
 from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.tracking.tracker import TrackerConfig
+from hand_tracker_ros.tracking.initialize import InitConfig
+from hand_tracker_ros.vision.detector.detector import DetectorConfig
 from hand_tracker_ros.vision.features import FeaturesConfig
 
 DEFAULT_CAMERAS = ('cam0', 'cam1', 'cam2', 'cam3')
@@ -31,19 +35,53 @@ class SalientPointsNodeConfig:
     cameras: tuple[str, ...] = param(DEFAULT_CAMERAS, 'camera namespaces served by this node')
     image_topic: str = param('image_raw', 'image topic, relative to each camera namespace')
     queue_depth: int = param(2, 'subscription queue depth per camera', low=1, high=100)
+    detector: DetectorConfig = nested(DetectorConfig)
+
+
+# The model's neutral pose (``HandModel.neutral_theta()``, PARAM_NAMES order) with the wrist at
+# the world origin, spelled out because building the model at import time costs seconds; a
+# test checks that it equals ``neutral_theta()``.
+NEUTRAL_POSE = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.15, 0.25, 0.15, 0.15,
+                *(0.2, 0.0, 0.25, 0.15) * 4)
 
 
 @dataclass(frozen=True)
 class TrackerNodeConfig:
     """The `tracker` node: synchronized multi-camera model fitting."""
 
-    cameras: tuple[str, ...] = param(DEFAULT_CAMERAS, 'camera namespaces of the rig')
-    rig_file: str = param('', 'rig YAML (intrinsics + extrinsics); empty: camera_info topics')
-    world_frame: str = param('world', 'fixed frame of every output')
+    cameras: tuple[str, ...] = param(DEFAULT_CAMERAS, 'camera namespaces to use; each must be '
+                                     'a camera of the rig file')
+    rig_file: str = param('', 'rig YAML (intrinsics + extrinsics, geometry.rig schema); '
+                          'required: without it the node stays idle')
+    world_frame: str = param('world', 'fixed frame of every output (the rig\'s world frame)')
     sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set', unit='ms',
                                 low=0.1, high=1000.0)
     sync_queue_size: int = param(10, 'messages kept per camera while waiting for a set',
                                  low=1, high=1000)
+    queue_depth: int = param(2, 'subscription queue depth per topic (sensor-data QoS)',
+                             low=1, high=100)
+    optional_wait_ms: float = param(100.0, 'how long a camera frame whose edges, orientation '
+                                    'and mask are in waits for flow and salient points',
+                                    unit='ms', low=0.0, high=5000.0)
+    max_pending_frames: int = param(8, 'incomplete frames kept per camera (oldest dropped)',
+                                    low=1, high=1000)
+    initial_pose: tuple[float, ...] = param(NEUTRAL_POSE, 'start pose, 26 numbers in '
+                                            'JointState order (m, rad); also used to '
+                                            're-initialize after tracking.failure.'
+                                            'reinit_after lost frames')
+    initialization: str = param('observations', 'first pose and recovery: search the hand in '
+                                'the observations, or use initial_pose',
+                                choices=('observations', 'initial_pose'))
+    init: InitConfig = nested(InitConfig)
+    publish_mesh: bool = param(False, 'add the model mesh (TRIANGLE_LIST) to `markers`')
+    publish_overlay: bool = param(False, 'publish <cam>/overlay: the model drawn on the input')
+    optical_frame_suffix: str = param('_optical_frame', 'frame id of <cam>/overlay is the '
+                                      'camera name plus this suffix (REP 103 optical frame)')
+    overlay_source: str = param('mask', 'image the overlay is drawn on',
+                                choices=('mask', 'edges'))
+    diagnostics_period_s: float = param(1.0, 'period of /diagnostics', unit='s', low=0.1,
+                                        high=60.0)
+    tracking: TrackerConfig = nested(TrackerConfig)
 
 
 @dataclass(frozen=True)
@@ -51,15 +89,35 @@ class PlayerNodeConfig:
     """The `player` node: replays a rosbag2 (sqlite3 or mcap) on its original topics."""
 
     bag: str = param('', 'bag directory or .mcap file to play; empty: stay idle')
-    rate: float = param(1.0, 'playback speed factor', low=0.01, high=100.0)
-    loop: bool = param(False, 'restart from the beginning at the end of the bag')
-    start_offset: float = param(0.0, 'seconds into the bag to start from', unit='s', low=0.0)
-    publish_clock: bool = param(True, 'publish /clock before every message (use_sim_time)')
+    playback: PlaybackConfig = nested(PlaybackConfig)
+    publish_clock: bool = param(True, 'publish /clock (bag time) before every message, for '
+                                'use_sim_time; the bag\'s own /clock is then not played')
+    start_paused: bool = param(False, 'wait for `false` on ~/pause (std_msgs/Bool) to start')
+    wait_for_subscribers_s: float = param(
+        5.0, 'before playing, wait up to this long until every topic of `wait_topics` has '
+        'a subscriber; 0 = do not wait', unit='s', low=0.0)
+    wait_topics: tuple[str, ...] = param((), 'output topics to wait for; empty = every '
+                                         'played topic')
+    qos_reliability: str = param('bag', "publisher reliability: 'bag' = as recorded "
+                                 '(best effort if every recorded publisher was)',
+                                 choices=('bag', 'reliable', 'best_effort'))
+    qos_depth: int = param(20, 'publisher queue depth (keep last)', low=1, high=10000)
+    ack_timeout_s: float = param(5.0, 'at the end, wait up to this long until reliable '
+                                 'subscribers acknowledged every message', unit='s', low=0.0)
 
 
 @dataclass(frozen=True)
 class RecorderNodeConfig:
-    """The `recorder` node: records topics to a rosbag2 mcap through raw subscriptions."""
+    """The `recorder` node: records topics to a rosbag2 through raw subscriptions."""
 
     output: str = param('', 'output bag directory (must not exist); empty: stay idle')
     topics: tuple[str, ...] = param(('/joint_states', '/hand_state'), 'topics to record')
+    all_topics: bool = param(False, 'record every topic that appears in the graph')
+    exclude_regex: str = param('', "topics fully matching this regex are not recorded; "
+                               "'' = none")
+    storage: str = param('mcap', 'bag storage plugin', choices=('mcap', 'sqlite3'))
+    queue_depth: int = param(1000, 'subscription queue depth (keep last) per topic', low=1,
+                             high=100000)
+    discovery_period_s: float = param(0.1, 'period of the graph poll that finds the types '
+                                      'of topics not yet recorded', unit='s', low=0.01,
+                                      high=10.0)

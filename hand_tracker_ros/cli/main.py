@@ -10,10 +10,11 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from hand_tracker_ros.cli import demo, evaluate, launch, params, play, record, synth, track
+from hand_tracker_ros.cli import (demo, evaluate, launch, params, play, record, replay_eval,
+                                  synth, track)
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (demo, evaluate, launch, params, play, record, synth, track)
+VERBS = (demo, evaluate, launch, params, play, record, replay_eval, synth, track)
 
 
 def build_parser() -> argparse.ArgumentParser:

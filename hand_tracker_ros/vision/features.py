@@ -64,8 +64,9 @@ class CameraFeatures:
     flow : DenseFlow or SparseFlow or None
         Flow from the previous frame of this camera; None on the first frame, after a reset
         or a size change, or when flow is disabled.
-    gray : (h, w) uint8
-        Gray image of the ROI.
+    gray : (h, w) uint8 or None
+        Gray image of the ROI; None when the features were rebuilt from the ``features``
+        node's topics, which do not carry it (no energy reads it).
     roi_px : (u0, v0, u1, v1)
         Half-open full-image box covered by ``edges``, ``mask``, ``gray`` and a dense flow;
         ``(0, 0, W, H)`` without ROI.
@@ -78,7 +79,7 @@ class CameraFeatures:
     edges: EdgeMap
     mask: BoolArray
     flow: FlowField | None
-    gray: UInt8Array
+    gray: UInt8Array | None
     roi_px: tuple[int, int, int, int]
     image_size_px: tuple[int, int]
 
