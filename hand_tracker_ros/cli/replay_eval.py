@@ -23,8 +23,8 @@ def add_parser(sub: Any) -> None:
                             description=__doc__)
     parser.add_argument('bag', help='synthetic rosbag2 (with ground truth)')
     parser.add_argument('--out', default='out/replay', help='output directory')
-    parser.add_argument('--rate', type=float, default=0.2,
-                        help='playback rate (default 0.2: slow enough that no set is dropped '
+    parser.add_argument('--rate', type=float, default=0.1,
+                        help='playback rate (default 0.1: slow enough that no set is dropped '
                              'on a 2-core machine; 1.0 is real time)')
     parser.add_argument('--rig', help='rig YAML (default: rig.yaml beside the bag)')
     parser.add_argument('--no-offline', action='store_true', help='skip the offline comparison')

@@ -14,16 +14,18 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from hand_tracker_ros.ament import share_file
-from hand_tracker_ros.bags.convert import hand_state_from_msg
+from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.bags.convert import HandStateValues, hand_state_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.errors import HandTrackerError
-from hand_tracker_ros.evaluation.metrics import SequenceScores, score_sequence
+from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
 from hand_tracker_ros.launcher import ProcessGroup, ProcessSpec
 from hand_tracker_ros.model.hand import HandModel
@@ -41,6 +43,8 @@ class ReplayOutcome:
     input_sets: int          # frame sets in the bag (ground-truth stamps)
     joint_states: int        # JointState messages the tracker published
     scores: SequenceScores | None
+    states: dict[int, HandStateValues]   # recorded estimates by stamp (ns)
+    errors_mm: FloatArray    # per scored frame, mean 3D joint error, in stamp order
 
 
 def _list(values: list[str]) -> str:
@@ -52,8 +56,9 @@ def graph_specs(bag: Path, rig_path: Path, cameras: list[str], out: Path, rate: 
     """The node processes and the player process of one replay."""
     sim = ('-p', 'use_sim_time:=true')
     cams = ('-p', f'cameras:={_list(cameras)}')
-    tracker_args = [*sim, *cams, '-p', f'rig_file:={rig_path}',
-                    '--params-file', str(share_file('config/tracker.yaml'))]
+    # The parameter file first: later -p values override it.
+    tracker_args = ['--params-file', str(share_file('config/tracker.yaml')), *sim, *cams,
+                    '-p', f'rig_file:={rig_path}']
     if initial_pose is not None:
         pose = ','.join(repr(float(v)) for v in initial_pose)
         tracker_args += ['-p', f'initial_pose:=[{pose}]', '-p', 'initialization:=initial_pose']
@@ -71,11 +76,14 @@ def graph_specs(bag: Path, rig_path: Path, cameras: list[str], out: Path, rate: 
     return nodes, player
 
 
-def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.2,
+def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
            rig_path: str | Path | None = None, init_from_ground_truth: bool = True,
-           startup_s: float = 8.0, drain_s: float = 5.0, timeout_s: float = 3600.0
-           ) -> ReplayOutcome:
-    """Play ``bag`` through the live graph, record the outputs and score them."""
+           startup_s: float = 8.0, drain_s: float = 5.0, timeout_s: float = 3600.0,
+           on_started: Callable[[], None] | None = None) -> ReplayOutcome:
+    """Play ``bag`` through the live graph, record the outputs and score them.
+
+    ``on_started`` is called once the graph runs, before playback (e.g. to show the graph).
+    """
     bag, out_dir = Path(bag), Path(out_dir)
     rig_file = Path(rig_path) if rig_path else bag.parent / 'rig.yaml'
     rig = load_rig(bag, rig_file)
@@ -92,6 +100,8 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.2,
     graph.start()
     try:
         time.sleep(startup_s)  # let the recorder and the tracker subscribe first
+        if on_started is not None:
+            on_started()
         playback = ProcessGroup([player])
         playback.start()
         if playback.wait_any(timeout_s) is None:
@@ -109,19 +119,21 @@ def _score(recorded: Path, truth: dict, rig) -> ReplayOutcome:  # noqa: ANN001
     with BagReader(recorded) as reader:
         topics = reader.topics
         states = {stamp: hand_state_from_msg(msg)
-                  for _, _, stamp, msg in reader.decoded(topics=['/hand_state'])}
+                  for _, _, stamp, msg in reader.decoded(topics=['/hand_state'])
+                  } if '/hand_state' in topics else {}
         n_joint_states = topics['/joint_states'].count if '/joint_states' in topics else 0
     # The first set is where both paths are initialised (from ground truth): not scored.
     common = sorted(set(states) & set(truth) - {min(truth, default=None)})
     if not common:
-        return ReplayOutcome(recorded, len(truth), n_joint_states, None)
+        return ReplayOutcome(recorded, len(truth), n_joint_states, None, states, np.zeros(0))
     model = HandModel.build()
     parts = face_parts(model.faces, model.vertex_part)
     estimate = np.array([states[s].keypoints_m for s in common])
     depth = [max_interpenetration_m(model.pose(states[s].joint_positions, jacobian=False)
                                     .vertices_m, model.faces, parts, model.adjacent_parts)
              for s in common]
-    scores = score_sequence(estimate, np.array([truth[s].keypoints_m for s in common]),
-                            [states[s].status == 2 for s in common], rig.cameras, depth,
-                            [states[s].processing_time_s for s in common])
-    return ReplayOutcome(recorded, len(truth), n_joint_states, scores)
+    true = np.array([truth[s].keypoints_m for s in common])
+    scores = score_sequence(estimate, true, [states[s].status == 2 for s in common],
+                            rig.cameras, depth, [states[s].processing_time_s for s in common])
+    return ReplayOutcome(recorded, len(truth), n_joint_states, scores, states,
+                         joint_errors_mm(estimate, true))
