@@ -12,7 +12,6 @@ import statistics
 from collections import defaultdict
 
 from hand_tracker_ros.config import from_mapping
-from hand_tracker_ros.evaluation.runner import _detector
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
@@ -24,8 +23,7 @@ def bench(width: int, height: int, frames: int, overrides: dict) -> None:
     seq = SyntheticSequence(SynthConfig(motion='random', n_frames=frames + 2, width=width,
                                         height=height), model)
     shots = [seq.frame(k) for k in range(frames + 2)]
-    pipe = OfflinePipeline(model, seq.rig, from_mapping(PipelineConfig, overrides),
-                           detector=_detector())
+    pipe = OfflinePipeline(model, seq.rig, from_mapping(PipelineConfig, overrides))
     pipe.tracker.reset(shots[0].theta)
     pipe.step(FrameSet(shots[1].stamp_ns, shots[1].images))  # warm-up (numba caches, pools)
     stages = defaultdict(list)

@@ -69,7 +69,7 @@ def run_job(job: Job) -> RunResult:
     sequence = SyntheticSequence(SynthConfig(
         motion=job.motion, n_frames=bench.n_frames, fps=bench.fps, n_cameras=bench.n_cameras,
         width=bench.width, height=bench.height, seed=bench.seed), model)
-    pipeline = OfflinePipeline(model, sequence.rig, job.pipeline, detector=_detector())
+    pipeline = OfflinePipeline(model, sequence.rig, job.pipeline)
     faces_part = face_parts(model.faces, model.vertex_part)
     truth, estimate, lost, seconds, depth = [], [], [], [], []
     first = sequence.frame(0)
@@ -93,10 +93,6 @@ def run_job(job: Job) -> RunResult:
              scores.joint_mean_mm, scores.ms_per_frame)
     return RunResult(job.label, job.motion, scores, joint_errors_mm(est, tru),
                      np.array(lost, bool))
-
-
-def _detector():  # noqa: ANN202 - the detector lands with the features/detector issue
-    return None
 
 
 def run_jobs(jobs: Sequence[Job], workers: int = 2) -> list[RunResult]:

@@ -24,6 +24,7 @@ from hand_tracker_ros.tracking.initialize import InitConfig, initialize
 from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
                                                     SalientDetections)
 from hand_tracker_ros.tracking.tracker import HandTracker, TrackerConfig, TrackResult
+from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
 from hand_tracker_ros.vision.edges import edge_map_from
 from hand_tracker_ros.vision.features import CameraFeatures, FeaturesConfig, MultiCameraFeatures
 
@@ -35,6 +36,9 @@ class PipelineConfig:
     """Features, tracker and (for synthetic evaluation) edge noise."""
 
     features: FeaturesConfig = nested(FeaturesConfig)
+    detector: DetectorConfig = nested(DetectorConfig)
+    use_detector: bool = param(True, 'detect fingertips (salient points) with the trained '
+                               'detector')
     tracker: TrackerConfig = nested(TrackerConfig)
     init: InitConfig = nested(InitConfig)
     auto_initialize: bool = param(True, 'find the hand from the observations on the first frame '
@@ -44,7 +48,11 @@ class PipelineConfig:
 
 
 class OfflinePipeline:
-    """Features, detection and tracking of one rig's frame sets, in order."""
+    """Features, detection and tracking of one rig's frame sets, in order.
+
+    The fingertip detector is the shipped (or ``detector.model_path``) trained one unless
+    ``detector`` is given or ``use_detector`` is off.
+    """
 
     def __init__(self, model: HandModel, rig: CameraRig, config: PipelineConfig = PipelineConfig(),
                  detector: Detector | None = None) -> None:
@@ -52,6 +60,8 @@ class OfflinePipeline:
         self.config = config
         self.tracker = HandTracker(model, rig.cameras, config.tracker)
         self._features = MultiCameraFeatures(rig.names, config.features)
+        if detector is None and config.use_detector:
+            detector = FingertipDetector.load(config=config.detector).detect
         self._detector = detector
         self._frame = 0
 

@@ -28,7 +28,7 @@ from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.synthetic.motions import RELAXED_DEG
-from hand_tracker_ros.tracking.health import silhouette_agreement
+from hand_tracker_ros.tracking.health import silhouette_iou
 from hand_tracker_ros.tracking.observations import FrameObservations
 
 LOG = logging.getLogger(__name__)
@@ -93,7 +93,7 @@ def initialize(tracker, observations: FrameObservations,  # noqa: ANN001
     scored = []
     for theta in hypotheses(tracker.model, center, config):
         views = tracker.views(tracker.model.pose(theta, jacobian=False))
-        scored.append((silhouette_agreement(views, observations), theta))
+        scored.append((silhouette_iou(views, observations), theta))
     scored.sort(key=lambda item: -item[0])
     best_iou, best = -1.0, scored[0][1]
     for _, theta in scored[:config.keep]:
@@ -102,8 +102,9 @@ def initialize(tracker, observations: FrameObservations,  # noqa: ANN001
         for _ in range(config.refine_frames):
             result = tracker.track(observations)
             tracker.reset(result.theta)
-        if result.silhouette_iou > best_iou:
-            best_iou, best = result.silhouette_iou, result.theta
+        iou = silhouette_iou(tracker.views(result.posed), observations)
+        if iou > best_iou:
+            best_iou, best = iou, result.theta
     LOG.info('initialized at %s (silhouette IoU %.2f)', np.round(center, 3), best_iou)
     tracker.reset(best)
     return best

@@ -8,7 +8,7 @@ box-constrained Levenberg-Marquardt (:mod:`hand_tracker_ros.optim.lm`) on the we
 (:mod:`.problem`) with those correspondences fixed.
 
 After the last round the estimate is checked (:mod:`.health`): a non-finite result or a model
-silhouette that no longer agrees with the observed foreground masks marks the frame LOST;
+silhouette that is no longer covered by the observed foreground masks marks the frame LOST;
 nothing is published as tracking then, and after ``failure.reinit_after`` lost frames the tracker
 re-initialises from the observations (:mod:`.initialize`).
 """
@@ -32,7 +32,7 @@ from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
 from hand_tracker_ros.optim.pso import PSOConfig, particle_swarm
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.tracking.energies import TermsConfig, build_terms
-from hand_tracker_ros.tracking.health import FailureConfig, silhouette_agreement
+from hand_tracker_ros.tracking.health import FailureConfig, silhouette_coverage
 from hand_tracker_ros.tracking.observations import FrameObservations
 from hand_tracker_ros.tracking.problem import Problem
 from hand_tracker_ros.tracking.schedule import ScheduleConfig, rounds
@@ -72,7 +72,7 @@ class TrackResult:
     posed: PosedHand
     iterations: int                    # LM iterations over all rounds
     energy_costs: dict[str, float]     # 0.5 * w * |r|^2 per term at the estimate
-    silhouette_iou: float              # mean model/observed mask IoU over cameras
+    silhouette_coverage: float         # mean fraction of the model silhouette on foreground
     timings_s: dict[str, float] = field(default_factory=dict)
     labels: tuple[Any, ...] = ()       # per camera: detection -> finger (-1 unassigned)
 
@@ -185,8 +185,9 @@ class HandTracker:
         assert problem is not None
         posed = self.model.pose(theta, jacobian=False)
         views = self.views(posed)
-        iou = silhouette_agreement(views, observations)
-        healthy = bool(np.all(np.isfinite(theta))) and iou >= self.config.failure.min_iou
+        coverage = silhouette_coverage(views, observations)
+        healthy = (bool(np.all(np.isfinite(theta)))
+                   and coverage >= self.config.failure.min_coverage)
         costs = problem.costs(theta, correspondences)
         labels = tuple(getattr(c, 'labels', ()) for c in correspondences
                        if hasattr(c, 'labels'))
@@ -198,9 +199,10 @@ class HandTracker:
         else:
             self._lost_frames += 1
             status = TrackStatus.LOST
-            LOG.warning('frame %d lost (silhouette IoU %.2f)', observations.stamp_ns, iou)
+            LOG.warning('frame %d lost (silhouette coverage %.2f)', observations.stamp_ns,
+                        coverage)
         timings['total'] = time.perf_counter() - start
-        return TrackResult(observations.stamp_ns, status, theta, posed, iterations, costs, iou,
+        return TrackResult(observations.stamp_ns, status, theta, posed, iterations, costs, coverage,
                            timings, labels)
 
     @property

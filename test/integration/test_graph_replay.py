@@ -1,0 +1,25 @@
+"""The multi-process graph on a synthetic bag: published estimates, accuracy vs offline."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hand_tracker_ros.cli.replay_eval import offline_mean_error_mm
+from hand_tracker_ros.evaluation.replay import replay
+from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
+from hand_tracker_ros.synthetic.writer import write_sequence
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+
+def test_live_graph_tracks_a_bag_like_the_offline_path(tmp_path: Path, hand_model) -> None:
+    bag = write_sequence(SyntheticSequence(SynthConfig(motion='pinch', n_frames=16,
+                                                       n_cameras=3, seed=4), hand_model),
+                         tmp_path / 'synthetic')
+    outcome = replay(bag, tmp_path / 'replay', rate=0.1)
+    assert outcome.joint_states >= 0.95 * outcome.input_sets
+    assert outcome.scores is not None
+    offline = offline_mean_error_mm(str(bag), None)
+    assert outcome.scores.joint_mean_mm <= 1.5 * offline
+    assert outcome.scores.failures == 0
