@@ -11,10 +11,11 @@ import sys
 from collections.abc import Sequence
 
 from hand_tracker_ros.cli import (demo, evaluate, launch, params, play, record, replay_eval,
-                                  synth, track)
+                                  synth, track, train_detector)
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (demo, evaluate, launch, params, play, record, replay_eval, synth, track)
+VERBS = (demo, evaluate, launch, params, play, record, replay_eval, synth, track,
+         train_detector)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -13,7 +13,9 @@ Per image:
 1. channels (luma, chroma, learned skin likelihood) and candidates (grid pixels whose skin
    likelihood passes the learned gate), :mod:`.channels`;
 2. every candidate votes with every tree: weight :math:`w_\ell` (leaf tip probability) at
-   the candidate plus the leaf's mean offset, :mod:`.forest`;
+   the candidate plus the leaf's mean offset, :mod:`.forest`; leaves with
+   :math:`w_\ell <` ``min_leaf_weight`` abstain (many weak votes from clutter only raise
+   the floor of the vote image);
 3. the vote image :math:`A` is smoothed with a Gaussian of ``smoothing_sigma_px``; local
    maxima over a disc of ``nms_radius_px`` (non-maximum suppression) whose height
    :math:`h` gives a score :math:`s = \min(1, h / h_0) \ge` ``min_score`` are the
@@ -34,7 +36,7 @@ from hand_tracker_ros._typing import Float32Array, FloatArray, UInt8Array
 from hand_tracker_ros.config import param
 from hand_tracker_ros.tracking.observations import SalientDetections
 from hand_tracker_ros.vision.detector.channels import candidates, compute_channels
-from hand_tracker_ros.vision.detector.forest import vote
+from hand_tracker_ros.vision.detector.forest import pack_nodes, vote
 from hand_tracker_ros.vision.detector.model import DetectorModel
 from hand_tracker_ros.vision.image import check_rgb
 
@@ -48,14 +50,14 @@ class DetectorConfig:
     """Fingertip detector."""
 
     model_path: str = param('', 'trained model (.npz); empty: the shipped model')
-    min_score: float = param(0.3, 'minimum detection score', low=0.0, high=1.0)
-    max_detections: int = param(10, 'keep at most this many detections (highest scores)',
-                                low=0, high=100)
+    min_score: float = param(0.4, 'minimum detection score', low=0.0, high=1.0)
+    max_detections: int = param(5, 'keep at most this many detections (highest scores); 5 '
+                                'per hand in view', low=0, high=100)
     nms_radius_px: float = param(5.0, 'radius of the non-maximum suppression disc',
                                  unit='px', low=1.0, high=50.0)
-    smoothing_sigma_px: float = param(2.0, 'Gaussian smoothing of the vote image', unit='px',
+    smoothing_sigma_px: float = param(3.0, 'Gaussian smoothing of the vote image', unit='px',
                                       low=0.5, high=10.0)
-    min_leaf_weight: float = param(0.1, 'leaves with a lower tip probability do not vote',
+    min_leaf_weight: float = param(0.2, 'leaves with a lower tip probability do not vote',
                                    low=0.0, high=1.0)
 
 
@@ -119,8 +121,7 @@ class FingertipDetector:
     def __init__(self, model: DetectorModel, config: DetectorConfig = DetectorConfig()) -> None:
         self.model = model
         self.config = config
-        self._nodes = (model.forest.roots, model.forest.left, model.forest.right,
-                       model.forest.feature, model.forest.threshold, model.forest.value)
+        self._packed = pack_nodes(model.forest, model.bank)
         self._weight, self._offset = model.forest.votes(model.radius_px)
 
     @classmethod
@@ -137,7 +138,7 @@ class FingertipDetector:
         channels = compute_channels(image_rgb, model.skin_lut)
         ys, xs = candidates(channels, model.stride, model.gate)
         accumulator = np.zeros(image_rgb.shape[:2], dtype=np.float32)
-        vote(channels, model.bank, ys, xs, self._nodes, self._weight, self._offset,
+        vote(channels, ys, xs, model.forest.roots, self._packed, self._weight, self._offset,
              self.config.min_leaf_weight, accumulator)
         return accumulator
 

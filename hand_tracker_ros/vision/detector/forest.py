@@ -14,7 +14,7 @@ offset from the candidate to that tip). At load time it becomes the vote
 Why numba: a scikit-learn ``predict`` call costs ~1 ms of Python/joblib overhead per forest
 before any work and needs the (N, F) feature matrix materialised; the fused kernel here
 evaluates only the ~depth features each tree asks for, straight from the channel images,
-and accumulates the votes in the same pass (well under 1 ms for ~1000 candidates).
+and accumulates the votes in the same pass.
 ``cache=True`` stores the compiled code on disk so only the first process pays the compile.
 """
 from __future__ import annotations
@@ -26,7 +26,6 @@ import numpy as np
 
 from hand_tracker_ros._typing import Float32Array, FloatArray, Int32Array, IntArray, UInt8Array
 from hand_tracker_ros.checks import check_shape
-from hand_tracker_ros.vision.detector.channels import feature_value
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,25 +100,53 @@ def predict(forest_nodes: tuple, features: np.ndarray) -> FloatArray:
     return out / roots.shape[0]
 
 
+def pack_nodes(forest: ForestArrays, bank: Int32Array) -> Int32Array:
+    """The forest and its pixel tests packed per node for the voting kernel.
+
+    One 32-byte row per node ``(left, right, floor(threshold), c + 8 * pair, dy1, dx1,
+    dy2, dx2)`` puts everything a node visit reads in one cache line, instead of chasing
+    ``feature -> bank -> threshold`` in separate arrays. Features are integers, so
+    ``f <= threshold`` iff ``f <= floor(threshold)``.
+
+    Returns
+    -------
+    packed : (M, 8) int32
+    """
+    tests = bank[np.maximum(forest.feature, 0)]
+    packed = np.zeros((forest.left.size, 8), dtype=np.int32)
+    packed[:, 0], packed[:, 1] = forest.left, forest.right
+    packed[:, 2] = np.floor(np.clip(forest.threshold, -2.0**30, 2.0**30))
+    packed[:, 3] = tests[:, 0] + 8 * tests[:, 5]
+    packed[:, 4:8] = tests[:, 1:5]
+    return packed
+
+
 @numba.njit(cache=True, nogil=True)
-def vote(channels: UInt8Array, bank: Int32Array, ys: IntArray, xs: IntArray,
-         forest_nodes: tuple, weight: Float32Array, offset: Float32Array,
+def vote(channels: UInt8Array, ys: IntArray, xs: IntArray, roots: Int32Array,
+         packed: Int32Array, weight: Float32Array, offset: Float32Array,
          min_weight: float, accumulator: Float32Array) -> None:
     """Let every candidate vote with every tree into ``accumulator`` (H, W) float32, in place.
 
     A candidate at (y, x) reaching a leaf with weight ``w >= min_weight`` adds ``w / T`` at
-    the pixel nearest to ``(x + o_x, y + o_y)`` (votes off the image are dropped).
+    the pixel nearest to ``(x + o_x, y + o_y)`` (votes off the image are dropped). The pixel
+    test is the one of :func:`.channels.feature_value`, read from ``packed``
+    (:func:`pack_nodes`).
     """
-    roots, left, right, feature, threshold, _value = forest_nodes
     height, width = accumulator.shape
     scale = np.float32(1.0 / roots.shape[0])
     for i in range(ys.shape[0]):
         y, x = ys[i], xs[i]
         for t in range(roots.shape[0]):
             node = roots[t]
-            while left[node] != -1:
-                f = feature_value(channels, bank, feature[node], y, x)
-                node = left[node] if f <= threshold[node] else right[node]
+            while packed[node, 0] != -1:
+                kind = packed[node, 3]
+                c = kind & 7
+                f = np.int32(channels[c, min(max(y + packed[node, 4], 0), height - 1),
+                                      min(max(x + packed[node, 5], 0), width - 1)])
+                if kind >= 8:
+                    f -= np.int32(channels[c, min(max(y + packed[node, 6], 0), height - 1),
+                                           min(max(x + packed[node, 7], 0), width - 1)])
+                node = packed[node, 0] if f <= packed[node, 2] else packed[node, 1]
             w = weight[node]
             if w < min_weight:
                 continue
