@@ -100,7 +100,8 @@ def parse_remaps(remaps: Sequence[str]) -> dict[str, str]:
     return out
 
 
-def _compile_exclude(pattern: str) -> re.Pattern[str] | None:
+def compile_exclude(pattern: str) -> re.Pattern[str] | None:
+    """The compiled topic-exclusion regex (None when empty); ConfigError when invalid."""
     if not pattern:
         return None
     try:
@@ -141,7 +142,7 @@ class PlaybackSchedule:
         validate(config)
         self.config = config
         self.remaps = parse_remaps(config.remap)
-        self._exclude = _compile_exclude(config.exclude_regex)
+        self._exclude = compile_exclude(config.exclude_regex)
         start = bag_start_ns + round(config.start_offset_s * NS_PER_S)
         if start >= bag_end_ns:
             msg = (f'`start_offset_s` {config.start_offset_s} s is past the end of the bag '

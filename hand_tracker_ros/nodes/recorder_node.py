@@ -21,7 +21,6 @@ mcap summary and ``metadata.yaml``), so the bag is complete and readable.
 """
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -31,8 +30,9 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
 
+from hand_tracker_ros.bags.playback import compile_exclude
 from hand_tracker_ros.bags.writer import BagWriter
-from hand_tracker_ros.errors import BagFormatError, ConfigError, HandTrackerError
+from hand_tracker_ros.errors import BagFormatError, HandTrackerError
 from hand_tracker_ros.node_config import RecorderNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
@@ -40,16 +40,6 @@ from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.ros_io.raw import drain, matching_qos, message_class, parameter_list
 
 DESCRIPTION = 'Records topics to a rosbag2 (mcap) through raw subscriptions.'
-
-
-def _compile(pattern: str) -> re.Pattern[str] | None:
-    if not pattern:
-        return None
-    try:
-        return re.compile(pattern)
-    except re.error as err:
-        msg = f'`exclude_regex` {pattern!r} is not a valid regular expression: {err}'
-        raise ConfigError(msg) from err
 
 
 class RecorderNode(Node):
@@ -83,7 +73,7 @@ class RecorderNode(Node):
         if not self.config.output:
             self.get_logger().info('no `output` parameter: idle')
             return
-        self._exclude = _compile(self.config.exclude_regex)
+        self._exclude = compile_exclude(self.config.exclude_regex)
         self._wanted = {self.resolve_topic_name(t) for t in self.config.topics}
         self._writer = BagWriter(Path(self.config.output), storage=self.config.storage)
         self._writer.__enter__()

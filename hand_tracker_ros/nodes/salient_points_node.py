@@ -13,13 +13,13 @@ from functools import partial
 
 from hand_tracker_msgs.msg import SalientPoints
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.node_config import SalientPointsNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
-from hand_tracker_ros.ros_io.images import intrinsics_from_info, rgb_from_msg, salient_points_msg
+from hand_tracker_ros.ros_io.images import (ImageSizes, rgb_from_msg, salient_points_msg,
+                                            sensor_qos)
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.detector.detector import FingertipDetector
@@ -36,26 +36,16 @@ class SalientPointsNode(Node):
         bridge_core_logging(self)
         self.config = declare_config(self, SalientPointsNodeConfig)
         self._detector = FingertipDetector.load(config=self.config.detector)
-        sensor = QoSProfile(depth=self.config.queue_depth,
-                            reliability=qos_profile_sensor_data.reliability,
-                            history=qos_profile_sensor_data.history)
-        self._sizes: dict[str, tuple[int, int]] = {}
+        sensor = sensor_qos(self.config.queue_depth)
+        self._sizes = ImageSizes(self, THROTTLE_S)
         self._pubs = {c: self.create_publisher(SalientPoints, f'{c}/salient_points', 10)
                       for c in self.config.cameras}
         for cam in self.config.cameras:
             self.create_subscription(Image, f'{cam}/{self.config.image_topic}',
                                      partial(self._on_image, cam), sensor)
             self.create_subscription(CameraInfo, f'{cam}/camera_info',
-                                     partial(self._on_info, cam), sensor)
+                                     partial(self._sizes.on_info, cam), sensor)
         self.get_logger().info(f'fingertip detection for cameras {list(self.config.cameras)}')
-
-    def _on_info(self, camera: str, msg: CameraInfo) -> None:
-        try:
-            width, height, *_ = intrinsics_from_info(msg, camera)
-        except HandTrackerError as err:
-            self.get_logger().error(str(err), throttle_duration_sec=THROTTLE_S)
-            return
-        self._sizes[camera] = (width, height)
 
     def _on_image(self, camera: str, msg: Image) -> None:
         try:

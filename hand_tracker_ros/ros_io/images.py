@@ -13,11 +13,13 @@ from collections.abc import Sequence
 
 import numpy as np
 from hand_tracker_msgs.msg import SalientPoint, SalientPoints
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header
 
 from hand_tracker_ros._typing import FloatArray, UInt8Array
-from hand_tracker_ros.errors import CalibrationError
+from hand_tracker_ros.errors import CalibrationError, HandTrackerError
 from hand_tracker_ros.tracking.observations import SalientDetections
 from hand_tracker_ros.vision.image import image_from_buffer
 
@@ -76,3 +78,31 @@ def detections_from_msg(msg: SalientPoints) -> SalientDetections:
     uv = np.array([(p.u, p.v) for p in msg.points], np.float64)
     score = np.array([p.score for p in msg.points], np.float64)
     return SalientDetections(uv, score)
+
+
+def sensor_qos(depth: int) -> QoSProfile:
+    """Camera subscriptions: best effort (matches any publisher), keep the last ``depth``."""
+    return QoSProfile(depth=depth, reliability=qos_profile_sensor_data.reliability,
+                      history=qos_profile_sensor_data.history)
+
+
+class ImageSizes:
+    """Expected image size per camera, from its latest valid camera_info."""
+
+    def __init__(self, node: Node, throttle_s: float) -> None:
+        self._node = node
+        self._throttle_s = throttle_s
+        self._sizes: dict[str, tuple[int, int]] = {}
+
+    def on_info(self, camera: str, msg: CameraInfo) -> None:
+        """camera_info callback; an invalid one is logged (throttled) and ignored."""
+        try:
+            width, height, *_ = intrinsics_from_info(msg, camera)
+        except HandTrackerError as err:
+            self._node.get_logger().error(str(err), throttle_duration_sec=self._throttle_s)
+            return
+        self._sizes[camera] = (width, height)
+
+    def get(self, camera: str) -> tuple[int, int] | None:
+        """``(width, height)`` from camera_info, or None before the first one."""
+        return self._sizes.get(camera)
