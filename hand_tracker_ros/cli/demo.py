@@ -1,9 +1,9 @@
 """`hand-tracker demo`: the main job end to end on synthetic data.
 
 1. Makes a synthetic 4-camera bag with ground truth (unless ``--bag`` is given).
-2. Starts the node graph (features, salient_points, tracker, recorder) and shows, from the ROS
-   graph, that every node is up; plays the bag through it with the player; the tracker's
-   outputs are recorded.
+2. Starts the node graph (features, salient_points, tracker, recorder) and the player, shows
+   from the ROS graph that all five nodes are up, and plays the bag through the graph; the
+   tracker's outputs are recorded.
 3. Prints the accuracy summary and where it wrote the output bag, the error plot and the
    overlay images.
 """
@@ -21,7 +21,7 @@ from hand_tracker_ros.pipeline.frames import load_rig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
 
-GRAPH = ('features', 'salient_points', 'tracker', 'recorder')
+GRAPH = ('player', 'features', 'salient_points', 'tracker', 'recorder')
 
 
 def add_parser(sub: Any) -> None:

@@ -82,7 +82,7 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
            on_started: Callable[[], None] | None = None) -> ReplayOutcome:
     """Play ``bag`` through the live graph, record the outputs and score them.
 
-    ``on_started`` is called once the graph runs, before playback (e.g. to show the graph).
+    ``on_started`` is called once the graph and the player run (e.g. to show the graph).
     """
     bag, out_dir = Path(bag), Path(out_dir)
     rig_file = Path(rig_path) if rig_path else bag.parent / 'rig.yaml'
@@ -100,14 +100,16 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
     graph.start()
     try:
         time.sleep(startup_s)  # let the recorder and the tracker subscribe first
-        if on_started is not None:
-            on_started()
         playback = ProcessGroup([player])
         playback.start()
-        if playback.wait_any(timeout_s) is None:
+        try:
+            if on_started is not None:
+                on_started()
+            if playback.wait_any(timeout_s) is None:
+                msg = f'player did not finish {bag} within {timeout_s:.0f} s'
+                raise HandTrackerError(msg)
+        finally:
             playback.stop()
-            msg = f'player did not finish {bag} within {timeout_s:.0f} s'
-            raise HandTrackerError(msg)
         time.sleep(drain_s)
     finally:
         codes = graph.stop()
