@@ -14,7 +14,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
 def test_live_graph_tracks_a_bag_like_the_offline_path(tmp_path: Path, hand_model) -> None:
-    bag = write_sequence(SyntheticSequence(SynthConfig(motion='pinch', n_frames=16,
+    bag = write_sequence(SyntheticSequence(SynthConfig(motion='pinch', n_frames=40,
                                                        n_cameras=3, seed=4), hand_model),
                          tmp_path / 'synthetic')
     outcome = replay(bag, tmp_path / 'replay', rate=0.1)
