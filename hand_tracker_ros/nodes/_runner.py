@@ -1,22 +1,37 @@
 """Process entry shared by every node: ``--help``, DDS defaults, spin, clean shutdown.
 
 SIGINT and SIGTERM both end the process cleanly: rclpy's signal handlers shut the context
-down, ``spin`` raises ``ExternalShutdownException``, and the node is destroyed before
-``rclpy.try_shutdown``. Exit code 0 on such a shutdown.
+down, the spin loop sees it, and the node is destroyed before ``rclpy.try_shutdown``. Exit code
+0 on such a shutdown.
+
+Two details make that hold under load:
+
+- rclpy's handler chains to Python's SIGINT handler, which would raise ``KeyboardInterrupt``
+  at whatever bytecode runs next, e.g. between a subscription's take and its callback (the
+  recorder then loses that message). Python's handler is replaced by a no-op, so the context
+  shutdown alone ends the spin and every taken message reaches its callback.
+- The loop spins with a timeout instead of ``rclpy.spin``'s unbounded wait, so a signal that
+  lands between the ``context.ok()`` check and the wait (an idle node has no timer to wake it)
+  is noticed within ``_SPIN_PERIOD_S``; a shutdown racing the wait-set creation raises
+  rclpy's ``RCLError`` ("context is not valid", a ``RuntimeError``; rclpy does not export
+  the class), which then also just ends the loop.
 """
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from collections.abc import Callable, Sequence
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
 from hand_tracker_ros.config import describe, flatten
 from hand_tracker_ros.ros_env import apply_ros_defaults
+
+_SPIN_PERIOD_S = 0.5
 
 
 def _help_text(config_cls: type) -> str:
@@ -28,6 +43,19 @@ def _help_text(config_cls: type) -> str:
     return '\n'.join(lines)
 
 
+def _spin(node: Node) -> None:
+    """Spin ``node`` until its context shuts down."""
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    while node.context.ok():
+        try:
+            executor.spin_once(timeout_sec=_SPIN_PERIOD_S)
+        except RuntimeError:
+            if node.context.ok():
+                raise
+            return
+
+
 def run_node(name: str, description: str, config_cls: type,
              factory: Callable[[], Node], args: Sequence[str] | None = None) -> int:
     """Parse non-ROS arguments, then create the node with ``factory`` and spin it."""
@@ -37,15 +65,17 @@ def run_node(name: str, description: str, config_cls: type,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.parse_args(remove_ros_args(argv)[1:])
     apply_ros_defaults()
+    python_sigint = signal.signal(signal.SIGINT, lambda *_: None)
     rclpy.init(args=argv)
     node = None
     try:
         node = factory()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
+        _spin(node)
+    except ExternalShutdownException:
         pass
     finally:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        signal.signal(signal.SIGINT, python_sigint)
     return 0

@@ -39,8 +39,8 @@ def test_recorder_keeps_every_message_of_two_reliable_topics(node_process, ros, 
     assert text.wait_for_all_acked() and joints.wait_for_all_acked()
     assert recorder.stop() == 0, recorder.output()
     with BagReader(out) as bag:
-        assert {t: s.count for t, s in bag.topics.items()} == {'/rec/text': N_MESSAGES,
-                                                                '/rec/joints': N_MESSAGES}
+        assert {t: s.count for t, s in bag.topics.items()} == {
+            '/rec/text': N_MESSAGES, '/rec/joints': N_MESSAGES}, recorder.output()
         assert not any(s.best_effort for s in bag.topics.values())
         texts = [m.data for _, _, _, m in bag.decoded(['/rec/text'])]
         states = [m for _, _, _, m in bag.decoded(['/rec/joints'])]
