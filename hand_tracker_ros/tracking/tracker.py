@@ -87,6 +87,7 @@ class HandTracker:
         self.config = config
         self._edges = MeshEdges.from_faces(model.faces)
         self._terms = build_terms(config.terms, model)
+        self._collision = next((t.energy for t in self._terms if t.name == 'collision'), None)
         self._rounds = rounds(config.schedule)
         self._previous: PreviousFrame | None = None
         self._lost_frames = 0
@@ -156,6 +157,14 @@ class HandTracker:
         timings['solve'] = time.perf_counter() - start
         return result.x, result.evaluations, problem, anchor_corrs[-1]
 
+    def _intersects(self, theta: FloatArray, timings: dict[str, float]) -> bool:
+        """Whether non-adjacent parts of the hand posed at ``theta`` intersect."""
+        start = time.perf_counter()
+        vertices = self.model.pose(theta, jacobian=False).vertices_m
+        found = self._collision.pairs_at(vertices).n_residuals > 0
+        timings['collision_check'] = time.perf_counter() - start
+        return found
+
     def _lm_config(self) -> LMConfig:
         lm = self.config.lm
         return LMConfig(max_iterations=self.config.schedule.iterations, tau=lm.tau,
@@ -181,6 +190,13 @@ class HandTracker:
             theta, n_iter, problem, correspondences = self._solve_round(
                 theta, rnd.free, rnd.use_flow, observations, timings, start_views)
             start_views = None
+            iterations += n_iter
+        extra = self.config.schedule.collision_rounds if self.config.solver == 'lm' else 0
+        for _ in range(extra if self._collision is not None else 0):
+            if not self._intersects(theta, timings):
+                break
+            theta, n_iter, problem, correspondences = self._solve_round(
+                theta, np.ones(theta.size, bool), False, observations, timings)
             iterations += n_iter
         assert problem is not None
         posed = self.model.pose(theta, jacobian=False)

@@ -123,7 +123,7 @@ def test_residual_is_the_distance_to_the_ray_of_a_silhouette_pixel(scene) -> Non
     model, rig, _, truth, obs = scene
     theta = _perturbed(truth)
     energy = SilhouetteEnergy.from_model(SilhouetteConfig(max_points_per_camera=10000,
-                                                          data_to_model=False), model)
+                                                          data_to_model_weight=0.0), model)
     ctx = _context(scene, theta)
     corr = energy.correspond(ctx)
     posed = ctx.posed
@@ -146,8 +146,8 @@ def test_residual_is_the_distance_to_the_ray_of_a_silhouette_pixel(scene) -> Non
 def test_data_to_model_rows_reach_uncovered_silhouette_pixels(scene) -> None:
     _, _, _, truth, obs = scene
     theta = _perturbed(truth)
-    one_way = SilhouetteConfig(max_points_per_camera=10000, data_to_model=False)
-    both = SilhouetteConfig(max_points_per_camera=10000, data_to_model=True)
+    one_way = SilhouetteConfig(max_points_per_camera=10000, data_to_model_weight=0.0)
+    both = SilhouetteConfig(max_points_per_camera=10000, data_to_model_weight=1.0)
     ctx = _context(scene, theta)
     n_model = SilhouetteEnergy(one_way).correspond(ctx).n_residuals
     corr = SilhouetteEnergy(both).correspond(ctx)
@@ -167,6 +167,19 @@ def test_data_to_model_rows_reach_uncovered_silhouette_pixels(scene) -> None:
         np.testing.assert_allclose(gap, 0.5, atol=1e-6)
 
 
+def test_data_to_model_weight_scales_only_the_data_rows(scene) -> None:
+    theta = _perturbed(scene[3])
+    ctx = _context(scene, theta)
+    unit, heavy = (SilhouetteEnergy(SilhouetteConfig(data_to_model_weight=w)) for w in (1.0, 4.0))
+    n_model = SilhouetteEnergy(SilhouetteConfig(data_to_model_weight=0.0)).correspond(
+        ctx).n_residuals
+    r_unit = unit.residuals(ctx.posed, unit.correspond(ctx))
+    r_heavy = heavy.residuals(ctx.posed, heavy.correspond(ctx))
+    assert r_unit.size > n_model
+    np.testing.assert_allclose(r_heavy[:n_model], r_unit[:n_model])
+    np.testing.assert_allclose(r_heavy[n_model:], 2.0 * r_unit[n_model:])
+
+
 def test_data_to_model_pulls_a_too_small_model_back(scene) -> None:
     # One camera; the model 4 cm too far away looks smaller than the data silhouette, so
     # only the data-to-model rows can pull it closer.
@@ -179,8 +192,8 @@ def test_data_to_model_pulls_a_too_small_model_back(scene) -> None:
     free = np.zeros(truth.size, bool)
     free[:3] = True
     errors = []
-    for push in (False, True):
-        energy = SilhouetteEnergy(SilhouetteConfig(data_to_model=push))
+    for push in (0.0, 1.0):
+        energy = SilhouetteEnergy(SilhouetteConfig(data_to_model_weight=push))
         fitted = _fit(one_cam, energy, theta, free, 4)
         errors.append(np.linalg.norm(fitted[:3] - truth[:3]))
     assert errors[0] > 0.03

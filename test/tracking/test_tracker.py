@@ -82,3 +82,35 @@ def test_schedule_freezes_distal_joints_in_coarse_rounds() -> None:
     plan = rounds(ScheduleConfig(coarse_rounds=2, full_rounds=2, flow_fraction=0.5))
     assert [r.use_flow for r in plan] == [True, True, False, False]
     assert not plan[0].free.all() and plan[3].free.all()
+
+
+def test_collision_rounds_separate_fingers_the_schedule_left_intersecting(hand_model,
+                                                                          grasp) -> None:
+    from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
+    from hand_tracker_ros.model.layout import PARAM_NAMES
+
+    sequence, frames = grasp
+    frame = frames[3]
+    start = frame.theta.copy()
+    start[PARAM_NAMES.index('index_mcp_abd')] -= 0.16     # index and middle finger overlap
+    start[PARAM_NAMES.index('middle_mcp_abd')] += 0.16
+    face_part = face_parts(hand_model.faces, hand_model.vertex_part)
+
+    def n_pairs(vertices_m) -> int:
+        return len(intersecting_pairs(vertices_m, hand_model.faces, face_part,
+                                      hand_model.adjacent_parts))
+
+    assert n_pairs(hand_model.pose(frame.theta, jacobian=False).vertices_m) == 0
+    assert n_pairs(hand_model.pose(start, jacobian=False).vertices_m) > 50
+    left = []
+    for extra in (0, 3):
+        config = from_mapping(PipelineConfig, {
+            'tracker.schedule.coarse_rounds': 0, 'tracker.schedule.full_rounds': 1,
+            'tracker.schedule.iterations': 3, 'tracker.schedule.collision_rounds': extra})
+        pipeline = OfflinePipeline(hand_model, sequence.rig, config)
+        pipeline.tracker.reset(start)
+        result = pipeline.step(FrameSet(frame.stamp_ns, frame.images))
+        pipeline.close()
+        left.append(n_pairs(result.posed.vertices_m))
+    assert left[0] > 50          # one round of three LM steps leaves them intersecting
+    assert left[1] == 0
