@@ -28,12 +28,16 @@ def add_parser(sub: Any) -> None:
                         help=f'rendered training views (default {defaults.n_views})')
     parser.add_argument('--trees', type=int, default=defaults.n_trees,
                         help=f'trees of the forest (default {defaults.n_trees})')
+    parser.add_argument('--verifier-views', type=int, default=defaults.verifier_views,
+                        help=f'rendered views for the peak verifier (default '
+                             f'{defaults.verifier_views})')
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Train and write the model; print where it went."""
-    config = dataclasses.replace(TrainingConfig(), n_views=args.views, n_trees=args.trees)
+    config = dataclasses.replace(TrainingConfig(), n_views=args.views, n_trees=args.trees,
+                                 verifier_views=args.verifier_views)
     validate(config)
     out = Path(args.out) if args.out else default_model_path()
     start = time.monotonic()
@@ -41,5 +45,5 @@ def run(args: argparse.Namespace) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     model.save(out)
     print(f'wrote {out} ({model.forest.left.size} nodes, {len(model.forest.roots)} trees, '
-          f'{args.views} views, {time.monotonic() - start:.0f} s)')
+          f'{args.views} + {args.verifier_views} views, {time.monotonic() - start:.0f} s)')
     return 0

@@ -1,16 +1,18 @@
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from hand_tracker_ros.config import validate
 from hand_tracker_ros.errors import ConfigError, ImageFormatError
 from hand_tracker_ros.vision.detector.channels import (candidates, compute_channels,
-                                                       feature_matrix)
+                                                       feature_matrix, gate_image)
 from hand_tracker_ros.vision.detector.data import labelled_views
 from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
 from hand_tracker_ros.vision.detector.evaluation import DetectionTally
-from hand_tracker_ros.vision.detector.forest import pack_nodes, vote
+from hand_tracker_ros.vision.detector.forest import ForestArrays, pack_nodes, vote
 from hand_tracker_ros.vision.detector.model import DetectorModel
 
 # Seeds the shipped model (seed 0) was not trained on.
@@ -38,6 +40,20 @@ def test_shipped_model_finds_visible_tips_on_held_out_views(detector, views):
     assert np.median(tally.errors_px) < 4.0
 
 
+def test_verifier_beats_vote_height_on_held_out_views(detector, views):
+    # A one-leaf verifier of probability 1 keeps the 5 highest vote peaks: the ranking of
+    # a detector without the second stage.
+    accept_all = ForestArrays(roots=np.zeros(1, np.int32), left=np.full(1, -1, np.int32),
+                              right=np.full(1, -1, np.int32), feature=np.full(1, -1, np.int32),
+                              threshold=np.zeros(1), value=np.ones((1, 1)))
+    plain = FingertipDetector(dataclasses.replace(detector.model, verifier=accept_all))
+    verified, unverified = DetectionTally(), DetectionTally()
+    for view in views:
+        verified.add(detector.detect(view.image), view.tips_uv, view.tips_visible)
+        unverified.add(plain.detect(view.image), view.tips_uv, view.tips_visible)
+    assert verified.precision > unverified.precision + 0.1
+
+
 def test_detections_are_well_formed(detector, views):
     cfg = detector.config
     for view in views[:6]:
@@ -58,7 +74,7 @@ def test_fused_vote_kernel_matches_a_python_traversal(detector, views):
     model = detector.model
     forest = model.forest
     channels = compute_channels(views[0].image, model.skin_lut)
-    ys, xs = candidates(channels, model.stride, model.gate)
+    ys, xs = candidates(gate_image(channels) >= model.gate, model.stride)
     pick = np.random.default_rng(0).choice(ys.size, 40, replace=False)
     ys, xs = ys[pick], xs[pick]
     weight, offset = forest.votes(model.radius_px)
@@ -108,8 +124,10 @@ def test_model_save_load_round_trip(detector, tmp_path):
     again = DetectorModel.load(tmp_path / 'copy.npz')
     np.testing.assert_array_equal(again.bank, model.bank)
     np.testing.assert_array_equal(again.forest.value, model.forest.value)
-    assert (again.gate, again.stride, again.vote_norm) == (model.gate, model.stride,
-                                                           model.vote_norm)
+    np.testing.assert_array_equal(again.verifier.threshold, model.verifier.threshold)
+    np.testing.assert_array_equal(again.verifier.value, model.verifier.value)
+    assert (again.gate, again.stride, again.vote_norm, again.peak_floor, again.max_peaks) == (
+        model.gate, model.stride, model.vote_norm, model.peak_floor, model.max_peaks)
 
 
 def test_config_ranges_are_checked():

@@ -17,7 +17,7 @@ from hand_tracker_ros.vision.detector.training import TrainingConfig, export_for
 
 TINY = TrainingConfig(n_views=6, n_trees=3, max_leaves=60, n_features=64,
                       positives_per_tip=10, negatives_per_view=60, calibration_views=2,
-                      n_jobs=1)
+                      n_jobs=1, verifier_views=6, verifier_trees=2, verifier_max_leaves=20)
 
 
 def _nodes(forest):
@@ -57,17 +57,22 @@ def test_training_is_deterministic(hand_model, tmp_path):
     model = DetectorModel.load(paths[0])
     assert model.seed == 5 and model.forest.roots.size == TINY.n_trees
     assert 0 < model.gate < 255 and model.vote_norm > 0.0
+    assert model.verifier.roots.size == TINY.verifier_trees
+    assert model.verifier.value.shape[1] == 1
 
 
 def test_cli_writes_a_loadable_model(tmp_path, capsys):
     out = tmp_path / 'm.npz'
-    args = argparse.Namespace(seed=1, out=str(out), views=3, trees=2)
+    args = argparse.Namespace(seed=1, out=str(out), views=3, trees=2, verifier_views=3)
     assert train_detector.run(args) == 0
     assert 'wrote' in capsys.readouterr().out
-    assert DetectorModel.load(out).forest.roots.size == 2
+    model = DetectorModel.load(out)
+    assert model.forest.roots.size == 2
+    assert model.verifier.roots.size == TrainingConfig().verifier_trees
 
 
 def test_cli_rejects_bad_options(tmp_path):
-    args = argparse.Namespace(seed=1, out=str(tmp_path / 'm.npz'), views=0, trees=2)
+    args = argparse.Namespace(seed=1, out=str(tmp_path / 'm.npz'), views=0, trees=2,
+                              verifier_views=3)
     with pytest.raises(ConfigError, match='n_views'):
         train_detector.run(args)

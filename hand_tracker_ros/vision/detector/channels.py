@@ -19,7 +19,7 @@ with coordinates clamped to the image (replicated border). Training and inferenc
 :func:`feature_value`, so the forest sees bit-identical features in both.
 
 Candidates are the pixels of a regular grid whose box-averaged skin likelihood is at least
-the model's gate (:func:`candidates`); only they are described and vote.
+the model's gate (:func:`gate_image`, :func:`candidates`); only they are described and vote.
 
 The kernels are numba ``@njit(cache=True)``: per-pixel tests with clamped coordinates are a
 scalar loop numpy cannot express without materialising every offset image, and
@@ -59,8 +59,10 @@ def compute_channels(image_rgb: UInt8Array, skin_lut: UInt8Array) -> UInt8Array:
     """
     ycrcb = cv2.cvtColor(cv2.blur(image_rgb, (3, 3)), cv2.COLOR_RGB2YCrCb)
     out = np.empty((N_CHANNELS, *image_rgb.shape[:2]), dtype=np.uint8)
-    out[:3] = np.moveaxis(ycrcb, 2, 0)
-    skin = skin_lut[out[1] >> SKIN_SHIFT, out[2] >> SKIN_SHIFT]
+    out[:3] = cv2.split(ycrcb)
+    # One flat index per pixel: a 1-D take is ~6x faster than 2-D fancy indexing.
+    index = (out[1] >> SKIN_SHIFT).astype(np.uint16) * SKIN_BINS + (out[2] >> SKIN_SHIFT)
+    skin = skin_lut.ravel()[index]
     out[SKIN_CHANNEL] = cv2.blur(skin, (SKIN_BOX_PX, SKIN_BOX_PX))
     return out
 
@@ -102,8 +104,8 @@ def gate_image(channels: UInt8Array) -> UInt8Array:
     return cv2.blur(channels[SKIN_CHANNEL], (GATE_BOX_PX, GATE_BOX_PX))
 
 
-def candidates(channels: UInt8Array, stride: int, gate: int) -> tuple[IntArray, IntArray]:
-    """Grid pixels whose box-averaged skin likelihood (:func:`gate_image`) is >= ``gate``.
+def candidates(gate_mask: np.ndarray, stride: int) -> tuple[IntArray, IntArray]:
+    """Grid pixels inside the gate mask (``gate_image(channels) >= gate``, (H, W) bool).
 
     Returns
     -------
@@ -111,8 +113,7 @@ def candidates(channels: UInt8Array, stride: int, gate: int) -> tuple[IntArray, 
         Row and column of each candidate (row-major order).
     """
     half = stride // 2
-    grid = gate_image(channels)[half::stride, half::stride]
-    gy, gx = np.nonzero(grid >= gate)
+    gy, gx = np.nonzero(gate_mask[half::stride, half::stride])
     return gy * stride + half, gx * stride + half
 
 

@@ -111,11 +111,11 @@ def scene_views(model: HandModel, seed: int, scene: int, *, cameras_per_scene: i
 
 
 def labelled_views(n_views: int, seed: int, *, model: HandModel | None = None,
-                   cameras_per_scene: int = 3, width: int = 320,
-                   height: int = 240) -> Iterator[LabelledView]:
-    """``n_views`` labelled views of consecutive scenes of ``seed``."""
+                   cameras_per_scene: int = 3, width: int = 320, height: int = 240,
+                   first_scene: int = 0) -> Iterator[LabelledView]:
+    """``n_views`` labelled views of consecutive scenes of ``seed``, from ``first_scene`` on."""
     model = model or HandModel.build()
-    produced, scene = 0, 0
+    produced, scene = 0, first_scene
     while produced < n_views:
         for view in scene_views(model, seed, scene, cameras_per_scene=cameras_per_scene,
                                 width=width, height=height)[:n_views - produced]:

@@ -42,8 +42,9 @@ class ForestArrays:
         Bank feature tested at the node (-1 at leaves).
     threshold : (M,) float64
         Split threshold.
-    value : (M, 3) float64
-        Regression value of each node (meaningful at leaves).
+    value : (M, K) float64
+        Regression value of each node (meaningful at leaves): K = 3 for the Hough forest
+        (tip probability and scaled offset), K = 1 for the verifier (tip probability).
     """
 
     roots: Int32Array
@@ -57,7 +58,7 @@ class ForestArrays:
         n = self.left.shape[0]
         for name in ('right', 'feature', 'threshold'):
             check_shape(name, getattr(self, name), (n,))
-        check_shape('value', self.value, (n, 3))
+        check_shape('value', self.value, (n, None))
         check_shape('roots', self.roots, (None,))
 
     def votes(self, radius_px: float) -> tuple[Float32Array, Float32Array]:
@@ -88,7 +89,7 @@ def predict(forest_nodes: tuple, features: np.ndarray) -> FloatArray:
 
     Returns
     -------
-    value : (N, 3) float64
+    value : (N, K) float64
     """
     roots, left, right, feature, threshold, value = forest_nodes
     out = np.zeros((features.shape[0], value.shape[1]))

@@ -1,9 +1,10 @@
 """The trained fingertip detector model and its ``.npz`` file.
 
-The file holds plain arrays only (no pickles): the feature bank, the flat forest, the skin
-table, and the scalars the detector needs (candidate stride and gate, positive radius, vote
-normaliser). It is written as a zip with fixed member timestamps, so training with the same
-seed writes the same bytes (``numpy.savez`` stamps the current time).
+The file holds plain arrays only (no pickles): the feature bank, the flat Hough forest, the
+flat verifier forest (``verifier_*`` members), the skin table, and the scalars the detector
+needs (candidate stride and gate, positive radius, vote normaliser, peak floor and count).
+It is written as a zip with fixed member timestamps, so training with the same seed writes
+the same bytes (``numpy.savez`` stamps the current time).
 """
 from __future__ import annotations
 
@@ -24,7 +25,8 @@ from hand_tracker_ros.vision.detector.forest import ForestArrays
 DEFAULT_MODEL_NAME = 'fingertip_forest.npz'
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 _FOREST_KEYS = ('roots', 'left', 'right', 'feature', 'threshold', 'value')
-_SCALAR_KEYS = ('stride', 'gate', 'radius_px', 'vote_norm', 'seed')
+_VERIFIER_KEYS = tuple(f'verifier_{k}' for k in _FOREST_KEYS)
+_SCALAR_KEYS = ('stride', 'gate', 'radius_px', 'vote_norm', 'peak_floor', 'max_peaks', 'seed')
 
 
 def default_model_path() -> Path:
@@ -41,6 +43,9 @@ class DetectorModel:
     bank : (F, 6) int32
         Pixel tests (see :mod:`.channels`).
     forest : ForestArrays
+        Hough forest (value K = 3).
+    verifier : ForestArrays
+        Peak verifier (value K = 1) over :func:`.verifier.peak_features`.
     skin_lut : (SKIN_BINS, SKIN_BINS) uint8
         Skin likelihood per chroma bin.
     stride : int
@@ -52,33 +57,44 @@ class DetectorModel:
     vote_norm : float
         Smoothed vote peak of a typical visible tip on training views; scores are peak
         heights divided by it.
+    peak_floor : float
+        Vote peaks lower than ``peak_floor * vote_norm`` are not verified.
+    max_peaks : int
+        At most this many highest peaks per image are verified.
     seed : int
         Training seed.
     """
 
     bank: Int32Array
     forest: ForestArrays
+    verifier: ForestArrays
     skin_lut: UInt8Array
     stride: int
     gate: int
     radius_px: float
     vote_norm: float
+    peak_floor: float
+    max_peaks: int
     seed: int
 
     def __post_init__(self) -> None:
         check_shape('bank', self.bank, (None, 6))
         check_shape('skin_lut', self.skin_lut, (SKIN_BINS, SKIN_BINS))
-        if self.stride < 1 or self.radius_px <= 0.0 or self.vote_norm <= 0.0:
+        if (self.stride < 1 or self.radius_px <= 0.0 or self.vote_norm <= 0.0
+                or self.peak_floor < 0.0 or self.max_peaks < 1):
             msg = (f'invalid detector model: stride {self.stride}, radius_px {self.radius_px}, '
-                   f'vote_norm {self.vote_norm}')
+                   f'vote_norm {self.vote_norm}, peak_floor {self.peak_floor}, '
+                   f'max_peaks {self.max_peaks}')
             raise ConfigError(msg)
 
     def save(self, path: str | Path) -> None:
         """Write the model as a deterministic ``.npz`` (same model -> same bytes)."""
         arrays = {'bank': self.bank, 'skin_lut': self.skin_lut,
                   **{k: getattr(self.forest, k) for k in _FOREST_KEYS},
+                  **{f'verifier_{k}': getattr(self.verifier, k) for k in _FOREST_KEYS},
                   **{k: np.asarray(getattr(self, k)) for k in _SCALAR_KEYS}}
-        arrays['value'] = arrays['value'].astype(np.float32)
+        for key in ('value', 'verifier_value'):
+            arrays[key] = arrays[key].astype(np.float32)
         with zipfile.ZipFile(path, 'w', compression=zipfile.ZIP_DEFLATED) as archive:
             for name, array in arrays.items():
                 buffer = io.BytesIO()
@@ -103,16 +119,26 @@ class DetectorModel:
                   f'train-detector`)'
             raise ConfigError(msg)
         with np.load(path, allow_pickle=False) as data:
-            missing = sorted({'bank', 'skin_lut', *_FOREST_KEYS, *_SCALAR_KEYS} - set(data))
+            missing = sorted({'bank', 'skin_lut', *_FOREST_KEYS, *_VERIFIER_KEYS,
+                              *_SCALAR_KEYS} - set(data))
             if missing:
                 msg = f'detector model {path} lacks {", ".join(missing)}'
                 raise ConfigError(msg)
-            forest = ForestArrays(
-                roots=data['roots'].astype(np.int32), left=data['left'].astype(np.int32),
-                right=data['right'].astype(np.int32), feature=data['feature'].astype(np.int32),
-                threshold=data['threshold'].astype(np.float64),
-                value=data['value'].astype(np.float64))
-            return cls(bank=data['bank'].astype(np.int32), forest=forest,
+            return cls(bank=data['bank'].astype(np.int32), forest=_forest(data, ''),
+                       verifier=_forest(data, 'verifier_'),
                        skin_lut=data['skin_lut'].astype(np.uint8), stride=int(data['stride']),
                        gate=int(data['gate']), radius_px=float(data['radius_px']),
-                       vote_norm=float(data['vote_norm']), seed=int(data['seed']))
+                       vote_norm=float(data['vote_norm']),
+                       peak_floor=float(data['peak_floor']), max_peaks=int(data['max_peaks']),
+                       seed=int(data['seed']))
+
+
+def _forest(data: np.lib.npyio.NpzFile, prefix: str) -> ForestArrays:
+    """The forest stored under the keys ``prefix + name``."""
+    return ForestArrays(
+        roots=data[f'{prefix}roots'].astype(np.int32),
+        left=data[f'{prefix}left'].astype(np.int32),
+        right=data[f'{prefix}right'].astype(np.int32),
+        feature=data[f'{prefix}feature'].astype(np.int32),
+        threshold=data[f'{prefix}threshold'].astype(np.float64),
+        value=data[f'{prefix}value'].astype(np.float64))

@@ -1,0 +1,66 @@
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from hand_tracker_ros.vision.detector.channels import SKIN_CHANNEL
+from hand_tracker_ros.vision.detector.verifier import N_ANGLES, N_FEATURES, RING_RADII_PX, \
+    peak_features
+
+_RING = 10  # features per ring radius, after the 3 peak features
+
+
+def _finger(angle_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Channels and gate mask of one skin bar (a finger 10 px wide) ending at (100, 100)."""
+    skin = np.zeros((200, 200), np.uint8)
+    d = np.array([np.cos(np.deg2rad(angle_deg)), np.sin(np.deg2rad(angle_deg))])
+    end = np.array([100.0, 100.0])
+    cv2.line(skin, tuple(int(c) for c in np.rint(end)),
+             tuple(int(c) for c in np.rint(end - 90.0 * d)), 255, thickness=10)
+    cv2.circle(skin, (100, 100), 5, 255, -1)
+    channels = np.zeros((4, 200, 200), np.uint8)
+    channels[0] = skin // 2 + 60
+    channels[SKIN_CHANNEL] = skin
+    return channels, skin > 127, d
+
+
+def _ring(features: np.ndarray, r: int) -> np.ndarray:
+    start = 3 + _RING * RING_RADII_PX.index(r)
+    return features[:, start:start + _RING]
+
+
+def test_feature_layout():
+    channels, mask, _ = _finger(0.0)
+    uv = np.array([[100.0, 100.0], [60.0, 100.0]])
+    features = peak_features(uv, np.array([2.0, 1.0]), channels, mask, vote_norm=4.0)
+    assert features.shape == (2, N_FEATURES) and features.dtype == np.float32
+    np.testing.assert_allclose(features[:, :3], [[0.5, 1.0, 0.0], [0.25, 0.5, 1.0]])
+
+
+def test_ring_profile_tells_a_tip_from_the_middle_of_a_finger():
+    channels, mask, d = _finger(30.0)
+    tip = np.array([100.0, 100.0])
+    uv = np.stack([tip, tip - 40.0 * d])
+    ring = _ring(peak_features(uv, np.ones(2), channels, mask, 1.0), 9)
+    # mask transitions: the ring crosses the finger once at the tip, twice in the middle.
+    assert ring[0, 7] == 2 and ring[1, 7] == 4
+    # first mask harmonic: one skin arc (tip) is lopsided, two opposite arcs cancel.
+    assert ring[0, 5] > 2.0 * ring[1, 5]
+
+
+def test_ring_features_do_not_depend_on_finger_direction():
+    rings = []
+    for angle in (0.0, 90.0, 180.0, 270.0):
+        channels, mask, _ = _finger(angle)
+        rings.append(peak_features(np.array([[100.0, 100.0]]), np.ones(1), channels, mask,
+                                   1.0)[0, 3:])
+    # Quarter turns map the 16-angle ring samples onto themselves exactly.
+    assert N_ANGLES % 4 == 0
+    for ring in rings[1:]:
+        np.testing.assert_allclose(ring, rings[0], atol=0.02)
+
+
+def test_no_peaks_give_an_empty_matrix():
+    channels, mask, _ = _finger(0.0)
+    features = peak_features(np.zeros((0, 2)), np.zeros(0), channels, mask, 1.0)
+    assert features.shape == (0, N_FEATURES)
