@@ -210,17 +210,24 @@ def export_forest(estimators: list) -> ForestArrays:
                         value=np.concatenate(value).astype(np.float64))
 
 
-def fit_forest(features: np.ndarray, targets: FloatArray, cfg: TrainingConfig,
-               seed: int) -> ForestArrays:
-    """Fit the Hough forest on (N, F) features and (N, 3) targets; export it."""
+def _fit_regression_forest(features: np.ndarray, targets: FloatArray, n_trees: int,
+                           max_leaves: int, min_samples_leaf: int, max_features: float,
+                           seed: int, n_jobs: int) -> ForestArrays:
+    """A bootstrapped scikit-learn regression forest on (N, F) features, exported."""
     from sklearn.ensemble import RandomForestRegressor
 
     forest = RandomForestRegressor(
-        n_estimators=cfg.n_trees, max_leaf_nodes=cfg.max_leaves,
-        min_samples_leaf=cfg.min_samples_leaf, max_features=cfg.max_features,
-        bootstrap=True, random_state=seed, n_jobs=cfg.n_jobs)
+        n_estimators=n_trees, max_leaf_nodes=max_leaves, min_samples_leaf=min_samples_leaf,
+        max_features=max_features, bootstrap=True, random_state=seed, n_jobs=n_jobs)
     forest.fit(features.astype(np.float32), targets)
     return export_forest(forest.estimators_)
+
+
+def fit_forest(features: np.ndarray, targets: FloatArray, cfg: TrainingConfig,
+               seed: int) -> ForestArrays:
+    """Fit the Hough forest on (N, F) features and (N, 3) targets; export it."""
+    return _fit_regression_forest(features, targets, cfg.n_trees, cfg.max_leaves,
+                                  cfg.min_samples_leaf, cfg.max_features, seed, cfg.n_jobs)
 
 
 def fit_verifier(features: np.ndarray, labels: FloatArray, cfg: TrainingConfig,
@@ -230,14 +237,9 @@ def fit_verifier(features: np.ndarray, labels: FloatArray, cfg: TrainingConfig,
     A regression forest on 0/1 labels predicts the leaf frequency of true tips, i.e. the
     tip probability, and exports to the same flat arrays as the Hough forest (K = 1).
     """
-    from sklearn.ensemble import RandomForestRegressor
-
-    forest = RandomForestRegressor(
-        n_estimators=cfg.verifier_trees, max_leaf_nodes=cfg.verifier_max_leaves,
-        min_samples_leaf=cfg.verifier_min_samples_leaf, max_features=cfg.verifier_max_features,
-        bootstrap=True, random_state=seed, n_jobs=cfg.n_jobs)
-    forest.fit(features.astype(np.float32), labels)
-    return export_forest(forest.estimators_)
+    return _fit_regression_forest(features, labels, cfg.verifier_trees,
+                                  cfg.verifier_max_leaves, cfg.verifier_min_samples_leaf,
+                                  cfg.verifier_max_features, seed, cfg.n_jobs)
 
 
 def _accept_all() -> ForestArrays:
