@@ -157,12 +157,12 @@ class HandTracker:
         timings['solve'] = time.perf_counter() - start
         return result.x, result.evaluations, problem, anchor_corrs[-1]
 
-    def _intersects(self, theta: FloatArray, timings: dict[str, float]) -> bool:
-        """Whether non-adjacent parts of the hand posed at ``theta`` intersect."""
+    def _intersects(self, vertices_m: FloatArray, timings: dict[str, float]) -> bool:
+        """Whether non-adjacent parts of the hand posed at ``vertices_m`` (V, 3) intersect."""
         start = time.perf_counter()
-        vertices = self.model.pose(theta, jacobian=False).vertices_m
-        found = self._collision.pairs_at(vertices).n_residuals > 0
-        timings['collision_check'] = time.perf_counter() - start
+        found = self._collision.pairs_at(vertices_m).n_residuals > 0
+        timings['collision_check'] = (timings.get('collision_check', 0.0)
+                                      + time.perf_counter() - start)
         return found
 
     def _lm_config(self) -> LMConfig:
@@ -191,15 +191,16 @@ class HandTracker:
                 theta, rnd.free, rnd.use_flow, observations, timings, start_views)
             start_views = None
             iterations += n_iter
+        posed = self.model.pose(theta, jacobian=False)
         extra = self.config.schedule.collision_rounds if self.config.solver == 'lm' else 0
         for _ in range(extra if self._collision is not None else 0):
-            if not self._intersects(theta, timings):
+            if not self._intersects(posed.vertices_m, timings):
                 break
             theta, n_iter, problem, correspondences = self._solve_round(
                 theta, np.ones(theta.size, bool), False, observations, timings)
             iterations += n_iter
+            posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
-        posed = self.model.pose(theta, jacobian=False)
         views = self.views(posed)
         coverage = silhouette_coverage(views, observations)
         healthy = (bool(np.all(np.isfinite(theta)))
