@@ -261,7 +261,7 @@ class SilhouetteEnergy:
                        ) -> SilhouetteCorrespondences:
         contours = view.contours
         outer = contours.is_outer
-        pixels = silhouette_pixels(obs.features)
+        pixels = obs.features.silhouette_px
         pixels = pixels[~view.raster.mask[pixels[:, 1], pixels[:, 0]]]
         pixels = pixels[_stride(len(pixels), self.config.max_points_per_camera)]
         if not outer.any() or pixels.size == 0:
@@ -282,17 +282,6 @@ def _stride(n: int, cap: int) -> IntArray:
     if n <= cap:
         return np.arange(n)
     return np.linspace(0, n - 1, cap).astype(np.int64)
-
-
-def silhouette_pixels(features: CameraFeatures) -> IntArray:
-    """Full-image ``(u, v)`` (K, 2) int64 of the foreground pixels with a background
-    4-neighbour (the ROI border does not count as background)."""
-    mask = features.mask.astype(np.uint8)
-    # cv2.erode pads with the maximum by default, so the ROI border keeps its pixels.
-    inner = cv2.erode(mask, cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3)))
-    rows, cols = np.nonzero(mask > inner)
-    u0, v0 = features.roi_px[:2]
-    return np.column_stack([cols + u0, rows + v0]).astype(np.int64)
 
 
 def _ray_matches(posed: Any, camera: Any, vertex_ids: IntArray, target_px: FloatArray

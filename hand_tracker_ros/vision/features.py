@@ -22,11 +22,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
 
-from hand_tracker_ros._typing import BoolArray, FloatArray, UInt8Array
+from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray, UInt8Array
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.errors import ConfigError, ShapeError
@@ -103,6 +104,18 @@ class CameraFeatures:
         out = np.zeros(uv_px.shape[0], dtype=bool)
         out[inside] = self.mask[row[inside], col[inside]]
         return out
+
+    @cached_property
+    def silhouette_px(self) -> IntArray:
+        """Full-image ``(u, v)`` (K, 2) int64 of the foreground pixels with a background
+        4-neighbour (the ROI border does not count as background); computed once per frame,
+        although every correspondence round reads it."""
+        mask = self.mask.astype(np.uint8)
+        # cv2.erode pads with the maximum by default, so the ROI border keeps its pixels.
+        inner = cv2.erode(mask, cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3)))
+        rows, cols = np.nonzero(mask > inner)
+        u0, v0 = self.roi_px[:2]
+        return np.column_stack([cols + u0, rows + v0]).astype(np.int64)
 
 
 class FeatureExtractor:
