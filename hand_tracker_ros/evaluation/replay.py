@@ -78,10 +78,13 @@ def graph_specs(bag: Path, rig_path: Path, cameras: list[str], out: Path, rate: 
 
 def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
            rig_path: str | Path | None = None, init_from_ground_truth: bool = True,
-           startup_s: float = 8.0, drain_s: float = 5.0, timeout_s: float = 3600.0,
+           startup_s: float = 120.0, drain_s: float = 5.0, timeout_s: float = 3600.0,
            on_started: Callable[[], None] | None = None) -> ReplayOutcome:
     """Play ``bag`` through the live graph, record the outputs and score them.
 
+    The player starts once the graph is connected: the tracker subscribes to every camera's
+    features and the recorder to the outputs (at most ``startup_s``; a loaded machine can need
+    more than 8 s to start the tracker, and the frames sent before it listens are lost).
     ``on_started`` is called once the graph and the player run (e.g. to show the graph).
     """
     bag, out_dir = Path(bag), Path(out_dir)
@@ -99,7 +102,7 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
     graph = ProcessGroup(nodes)
     graph.start()
     try:
-        time.sleep(startup_s)  # let the recorder and the tracker subscribe first
+        _wait_until_connected(list(rig.names), startup_s)
         playback = ProcessGroup([player])
         playback.start()
         try:
@@ -115,6 +118,18 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
         codes = graph.stop()
     LOG.info('graph exit codes: %s', codes)
     return _score(recorded, truth, rig)
+
+
+def _wait_until_connected(cameras: list[str], timeout_s: float) -> None:
+    """Block until the tracker and the recorder subscribe (see :func:`replay`)."""
+    from hand_tracker_ros.ros_io.graph import wait_for_subscriptions  # rclpy only here
+    from hand_tracker_ros.ros_io.observations import PARTS
+
+    topics = {f'/{c}/{part}' for c in cameras for part in PARTS} | set(OUTPUT_TOPICS)
+    missing = topics - wait_for_subscriptions(topics, timeout_s=timeout_s)
+    if missing:
+        msg = f'the graph did not subscribe to {sorted(missing)} within {timeout_s:.0f} s'
+        raise HandTrackerError(msg)
 
 
 def _score(recorded: Path, truth: dict, rig) -> ReplayOutcome:  # noqa: ANN001

@@ -1,8 +1,9 @@
 """The `recorder` node: records topics to a rosbag2 (mcap) through raw subscriptions.
 
-Discovery. Every ``discovery_period_s`` the node polls the graph
-(``get_topic_names_and_types``) for the topics it should record (``topics``, or every topic
-with ``all_topics``, minus ``exclude_regex``) that are not recorded yet. A topic is subscribed
+Discovery. Every ``discovery_period_s`` of wall time (also while a sim-time clock stands
+still) the node polls the graph (``get_topic_names_and_types``) for the topics it should
+record (``topics``, or every topic with ``all_topics``, minus ``exclude_regex``) that are not
+recorded yet. A topic is subscribed
 once it has a publisher: its type comes from the graph, its QoS matches the publishers
 (:func:`hand_tracker_ros.ros_io.raw.matching_qos`: reliable with a ``queue_depth`` deep
 queue for reliable publishers, best effort if any publisher is best effort). A topic whose type
@@ -26,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy.logging
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
@@ -78,7 +80,10 @@ class RecorderNode(Node):
         self._writer = BagWriter(Path(self.config.output), storage=self.config.storage)
         self._writer.__enter__()
         self.get_logger().info(f'recording to {self._writer.path} ({self.config.storage})')
-        self.create_timer(self.config.discovery_period_s, self._discover)
+        # A wall-clock timer: with use_sim_time the ROS clock stands still until a player
+        # publishes /clock, and the topics must be subscribed before that.
+        self.create_timer(self.config.discovery_period_s, self._discover,
+                          clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._discover()
 
     def _wants(self, topic: str) -> bool:
