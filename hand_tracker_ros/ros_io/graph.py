@@ -3,53 +3,44 @@ demo, the bag replay and the tests)."""
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 import rclpy
 from rclpy.node import Node
 
 
-def wait_for_subscriptions(topics: Iterable[str], *, timeout_s: float = 60.0) -> set[str]:
-    """Wait until every topic in ``topics`` has a subscription; return those that have one.
+def _poll(wanted: set[str], probe: Callable[[Node], set[str]], timeout_s: float) -> set[str]:
+    """Call ``probe(observer)`` every 0.2 s until it reports all of ``wanted`` or the time is
+    up; return the part of ``wanted`` it reported last.
 
-    Like :func:`wait_for_nodes` (own observer node and context); a partial set means the
-    timeout expired first.
+    The observer is a short-lived node in its own context, so callers need no rclpy setup.
     """
-    wanted = set(topics)
     context = rclpy.Context()
     rclpy.init(context=context)
     try:
         observer = Node('hand_tracker_graph_observer', context=context)
-        ready: set[str] = set()
+        found: set[str] = set()
         deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline and ready != wanted:
-            ready = {t for t in wanted if observer.count_subscribers(t) > 0}
+        while time.monotonic() < deadline and found != wanted:
+            found = probe(observer) & wanted
             time.sleep(0.2)
         observer.destroy_node()
-        return ready
+        return found
     finally:
         rclpy.try_shutdown(context=context)
+
+
+def wait_for_subscriptions(topics: Iterable[str], *, timeout_s: float = 60.0) -> set[str]:
+    """Wait until every topic in ``topics`` has a subscription; return those that have one
+    (a partial set means the timeout expired first)."""
+    wanted = set(topics)
+    return _poll(wanted, lambda node: {t for t in wanted if node.count_subscribers(t) > 0},
+                 timeout_s)
 
 
 def wait_for_nodes(names: Iterable[str], *, timeout_s: float = 30.0,
                    namespace: str = '/') -> set[str]:
-    """Wait until every node in ``names`` is discovered; return the set of those seen.
-
-    Creates a short-lived observer node in its own context; the caller checks the returned
-    set against ``names`` (a partial set means the timeout expired first).
-    """
-    wanted = set(names)
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    try:
-        observer = Node('hand_tracker_graph_observer', context=context)
-        seen: set[str] = set()
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline and not wanted <= seen:
-            seen = {n for n, ns in observer.get_node_names_and_namespaces()
-                    if ns == namespace} & wanted
-            time.sleep(0.2)
-        observer.destroy_node()
-        return seen
-    finally:
-        rclpy.try_shutdown(context=context)
+    """Wait until every node in ``names`` is discovered; return the set of those seen (a
+    partial set means the timeout expired first)."""
+    return _poll(set(names), lambda node: {n for n, ns in node.get_node_names_and_namespaces()
+                                           if ns == namespace}, timeout_s)
