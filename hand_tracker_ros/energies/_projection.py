@@ -9,8 +9,9 @@ Shared by the image terms (edges, flow, salient points). A vertex ``X_i(theta)``
     \frac{\partial X_i}{\partial \theta}
     \qquad (2 \times 3)(3 \times P)
 
-with ``duv_dX`` from :meth:`PinholeCamera.project_jacobian` and ``dX/dtheta`` the rows
-``posed.vertices_jac[ids]``. A block of targets ``t_i`` (px) with square-root weights ``s_i``
+with ``duv_dX`` as in :meth:`PinholeCamera.project_jacobian` (distortion included) and
+``dX/dtheta`` the rows ``posed.vertices_jac[ids]``; one numba pass per block projects,
+contracts with the normal and forms the rows without (N, 2, 3) or (N, 2, P) temporaries. A block of targets ``t_i`` (px) with square-root weights ``s_i``
 gives either
 
 - point rows (``normals_px is None``): ``r = s_i (u_i - t_i)``, 2 rows per target (u then v);
@@ -26,6 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numba
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray
@@ -74,51 +76,78 @@ class ImageTargets:
         return n if self.normals_px is not None else 2 * n
 
 
-def project_vertices(camera: PinholeCamera, posed: Any, vertex_ids: IntArray, *,
-                     jacobian: bool = True) -> tuple[FloatArray, FloatArray | None]:
-    """Project posed mesh vertices and differentiate them w.r.t. the pose.
+@numba.njit(cache=True, nogil=True)
+def _rows(vertices, vertices_jac, ids, R, t, intrinsics, dist8, targets, s, normals, line,
+          jacobian):  # pragma: no cover - compiled
+    """Rows of one block: project, distort, chain rule and weight per target in one pass.
 
-    Parameters
-    ----------
-    camera : PinholeCamera
-    posed : PosedHand
-        ``vertices_m (V, 3)`` and, if ``jacobian``, ``vertices_jac (V, 3, P)``.
-    vertex_ids : (N,) int64
-    jacobian : bool
-
-    Returns
-    -------
-    uv_px : (N, 2) float64
-        Projections (NaN behind the camera).
-    duv_dtheta : (N, 2, P) float64 or None
-        ``d uv / d theta`` (px per parameter unit); None unless ``jacobian``.
+    numba because the numpy form (``PinholeCamera.project_jacobian`` then two einsums per
+    block) spends most of its time in dispatch and temporaries of a few thousand rows, and it
+    runs once per camera and term at every LM evaluation. The projection and its derivative
+    repeat :meth:`PinholeCamera.project_jacobian` exactly (the test compares them).
     """
-    points = posed.vertices_m[vertex_ids]
-    if not jacobian:
-        return camera.project(points)[0], None
-    uv, _, duv_dX = camera.project_jacobian(points)
-    return uv, np.einsum('nij,njp->nip', duv_dX, posed.vertices_jac[vertex_ids])
+    n, n_p = ids.shape[0], vertices_jac.shape[2]
+    per = 1 if line else 2
+    r = np.empty(n * per)
+    J = np.zeros((n * per if jacobian else 0, n_p))
+    fx, fy, cx, cy = intrinsics[0], intrinsics[1], intrinsics[2], intrinsics[3]
+    k1, k2, p1, p2, k3, k4, k5, k6 = (dist8[0], dist8[1], dist8[2], dist8[3], dist8[4],
+                                      dist8[5], dist8[6], dist8[7])
+    g = np.empty((2, 3))
+    pc = np.empty(3)
+    for i in range(n):
+        v = ids[i]
+        for a in range(3):
+            pc[a] = (R[a, 0] * vertices[v, 0] + R[a, 1] * vertices[v, 1]
+                     + R[a, 2] * vertices[v, 2] + t[a])
+        inv_z = 1.0 / pc[2] if pc[2] > 0.0 else np.nan
+        x, y = pc[0] * inv_z, pc[1] * inv_z
+        r2 = x * x + y * y
+        num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        f = num / den
+        du = fx * (x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)) + cx - targets[i, 0]
+        dv = fy * (y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y) + cy - targets[i, 1]
+        if line:
+            r[i] = s[i] * (normals[i, 0] * du + normals[i, 1] * dv)
+        else:
+            r[2 * i], r[2 * i + 1] = s[i] * du, s[i] * dv
+        if not jacobian:
+            continue
+        dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+        df_dr2 = (dnum * den - num * dden) / (den * den)
+        a_ = f + 2.0 * x * x * df_dr2 + 2.0 * p1 * y + 6.0 * p2 * x
+        b_ = 2.0 * x * y * df_dr2 + 2.0 * p1 * x + 2.0 * p2 * y
+        d_ = f + 2.0 * y * y * df_dr2 + 6.0 * p1 * y + 2.0 * p2 * x
+        # d(u, v)/d(camera point), then rotate to d(u, v)/dX_world, weighted.
+        q0 = (fx * a_ * inv_z, fx * b_ * inv_z, -fx * (a_ * x + b_ * y) * inv_z)
+        q1 = (fy * b_ * inv_z, fy * d_ * inv_z, -fy * (b_ * x + d_ * y) * inv_z)
+        for c in range(3):
+            g[0, c] = s[i] * (q0[0] * R[0, c] + q0[1] * R[1, c] + q0[2] * R[2, c])
+            g[1, c] = s[i] * (q1[0] * R[0, c] + q1[1] * R[1, c] + q1[2] * R[2, c])
+        if line:
+            for c in range(3):
+                g[0, c] = normals[i, 0] * g[0, c] + normals[i, 1] * g[1, c]
+        for row in range(per):
+            for c in range(3):
+                gc = g[row, c]
+                for k in range(n_p):
+                    J[per * i + row, k] += gc * vertices_jac[v, c, k]
+    return r, J
 
 
 def _block_rows(posed: Any, block: ImageTargets, jacobian: bool
                 ) -> tuple[FloatArray, FloatArray | None]:
-    s = block.sqrt_weights
-    if block.normals_px is None:
-        uv, duv = project_vertices(block.camera, posed, block.vertex_ids, jacobian=jacobian)
-        r = (s[:, None] * (uv - block.targets_px)).ravel()
-        J = None if duv is None else (s[:, None, None] * duv).reshape(-1, duv.shape[2])
-        return r, J
-    # Point-to-line rows: contract the normal into d(uv)/dX first, n^T (duv/dX) (N, 3), so
-    # the chain rule with the (N, 3, P) vertex Jacobian forms no (N, 2, P) intermediate.
-    n = block.normals_px
-    points = posed.vertices_m[block.vertex_ids]
-    if not jacobian:
-        uv = block.camera.project(points)[0]
-        return s * np.einsum('ni,ni->n', n, uv - block.targets_px), None
-    uv, _, duv_dX = block.camera.project_jacobian(points)
-    g = s[:, None] * np.einsum('ni,nij->nj', n, duv_dX)
-    r = s * np.einsum('ni,ni->n', n, uv - block.targets_px)
-    return r, np.einsum('nj,njp->np', g, posed.vertices_jac[block.vertex_ids])
+    camera = block.camera
+    line = block.normals_px is not None
+    normals = block.normals_px if line else np.zeros((0, 2))
+    jac = posed.vertices_jac if jacobian else np.zeros((0, 3, int(np.size(posed.theta))))
+    intrinsics = np.array([camera.K[0, 0], camera.K[1, 1], camera.K[0, 2], camera.K[1, 2]])
+    r, J = _rows(posed.vertices_m, jac, block.vertex_ids, camera.R_cam_world,
+                 camera.T_cam_world[:3, 3], intrinsics, camera.dist8, block.targets_px,
+                 block.sqrt_weights, normals, line, jacobian)
+    return r, (J if jacobian else None)
 
 
 def image_residuals(posed: Any, blocks: Sequence[ImageTargets]) -> FloatArray:

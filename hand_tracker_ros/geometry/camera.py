@@ -192,6 +192,11 @@ class PinholeCamera:
         return 'plumb_bob' if self.dist.size == 5 else 'rational_polynomial'
 
     @property
+    def dist8(self) -> FloatArray:
+        """(8,) float64 ``k1, k2, p1, p2, k3, k4, k5, k6`` (plumb_bob padded with zeros)."""
+        return self._dist8
+
+    @property
     def R_cam_world(self) -> FloatArray:
         """(3, 3) float64 rotation from world to camera axes."""
         return self.T_cam_world[:3, :3]

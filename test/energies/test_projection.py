@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.energies._projection import (ImageTargets, image_linearize,
-                                                   image_residuals, project_vertices)
+                                                   image_residuals)
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.transforms import look_at
@@ -73,15 +73,35 @@ def test_row_values_are_weighted_point_and_line_offsets() -> None:
                                line.sqrt_weights * np.sum(line.normals_px * diff, axis=1))
 
 
-def test_project_vertices_chains_camera_and_pose_jacobians() -> None:
-    stub, camera = _Stub(3), _camera()
+@pytest.mark.parametrize('line', [False, True])
+def test_fused_rows_match_camera_jacobian_chain_rule(line: bool) -> None:
+    """The numba rows equal the reference: project_jacobian, then (normal and) pose chain rule."""
+    stub, camera = _Stub(6), _camera()
     posed = stub.pose(np.array([0.1, 0.2, 0.3, 0.4]))
-    uv, duv = project_vertices(camera, posed, np.array([2, 0]))
-    _, _, duv_dX = camera.project_jacobian(posed.vertices_m[[2, 0]])
-    np.testing.assert_allclose(duv[1], duv_dX[1] @ posed.vertices_jac[0])
-    uv_only, none = project_vertices(camera, posed, np.array([2, 0]), jacobian=False)
-    assert none is None
-    np.testing.assert_allclose(uv_only, uv)
+    block = _blocks(camera, line)[0]
+    uv, _, duv_dX = camera.project_jacobian(posed.vertices_m[block.vertex_ids])
+    duv = np.einsum('nij,njp->nip', duv_dX, posed.vertices_jac[block.vertex_ids])
+    s = block.sqrt_weights
+    if line:
+        n = block.normals_px
+        r_ref = s * np.sum(n * (uv - block.targets_px), axis=1)
+        J_ref = s[:, None] * np.einsum('ni,nip->np', n, duv)
+    else:
+        r_ref = (s[:, None] * (uv - block.targets_px)).ravel()
+        J_ref = (s[:, None, None] * duv).reshape(-1, _P)
+    r, J = image_linearize(posed, [block])
+    np.testing.assert_allclose(r, r_ref, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(J, J_ref, rtol=1e-12, atol=1e-12 * np.abs(J_ref).max())
+
+
+def test_points_behind_the_camera_give_nan_rows() -> None:
+    stub, camera = _Stub(6), _camera()
+    posed = stub.pose(np.zeros(_P))
+    behind = 2.0 * camera.center_world - posed.vertices_m[3]
+    posed.vertices_m[3] = behind
+    r, J = image_linearize(posed, _blocks(camera, True))
+    assert np.isnan(r[1:3]).all() and np.isfinite(r[[0, 3]]).all()
+    assert np.isnan(J[1:3]).all()
 
 
 def test_empty_blocks_give_empty_rows() -> None:
