@@ -22,7 +22,9 @@ depth-discontinuity boundary, as an edge detector would see it on a rendered ima
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 
+import numba
 import numpy as np
 import trimesh
 from numpy.typing import ArrayLike
@@ -112,6 +114,65 @@ class ContourPoints:
     is_outer: BoolArray
 
 
+@numba.njit(cache=True, nogil=True)
+def _front_facing(vertices, faces, center):  # pragma: no cover - compiled
+    front = np.empty(faces.shape[0], dtype=np.bool_)
+    for f in range(faces.shape[0]):
+        i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
+        a0, a1, a2 = (vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1],
+                      vertices[j, 2] - vertices[i, 2])
+        b0, b1, b2 = (vertices[k, 0] - vertices[i, 0], vertices[k, 1] - vertices[i, 1],
+                      vertices[k, 2] - vertices[i, 2])
+        n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        front[f] = (n0 * (center[0] - vertices[i, 0]) + n1 * (center[1] - vertices[i, 1])
+                    + n2 * (center[2] - vertices[i, 2])) > 0.0
+    return front
+
+
+@numba.njit(cache=True, nogil=True)
+def _contour_normals(uv, front, edge_vertices, faces_of_edge, opposite
+                     ):  # pragma: no cover - compiled
+    """Per-vertex sums (V, 2) of the unit image normals of its contour edges, and which
+    vertices lie on a contour edge (V,) bool.
+
+    numba because this runs per camera and round over every mesh edge (about 15k), where
+    the numpy form (masking, fancy indexing, bincount, unique) cost 1-2 ms per camera. The
+    sums are accumulated in the order the numpy form used (all first ends, then all second
+    ends), so the results agree to the last bit.
+    """
+    n_v = uv.shape[0]
+    acc = np.zeros((n_v, 2))
+    on = np.zeros(n_v, dtype=np.bool_)
+    n_e = edge_vertices.shape[0]
+    normal = np.zeros((n_e, 2))
+    contour = np.zeros(n_e, dtype=np.bool_)
+    for e in range(n_e):
+        f0 = front[faces_of_edge[e, 0]]
+        if f0 == front[faces_of_edge[e, 1]]:
+            continue
+        contour[e] = True
+        a, b = edge_vertices[e, 0], edge_vertices[e, 1]
+        # The opposite vertex of the front-facing one of the two triangles.
+        o = opposite[e, 0] if f0 else opposite[e, 1]
+        n0, n1 = uv[b, 1] - uv[a, 1], -(uv[b, 0] - uv[a, 0])
+        side = n0 * (uv[o, 0] - uv[a, 0]) + n1 * (uv[o, 1] - uv[a, 1])
+        if side > 0.0:
+            n0, n1 = -n0, -n1
+        elif not side < 0.0:   # degenerate (0) or behind the camera (NaN)
+            continue
+        length = math.sqrt(n0 * n0 + n1 * n1)
+        if length > _MIN_LENGTH_PX:
+            normal[e, 0], normal[e, 1] = n0 / length, n1 / length
+    for end in range(2):
+        for e in range(n_e):
+            if contour[e]:
+                v = edge_vertices[e, end]
+                on[v] = True
+                acc[v, 0] += normal[e, 0]
+                acc[v, 1] += normal[e, 1]
+    return acc, on
+
+
 def front_facing(camera: PinholeCamera, vertices_world: FloatArray,
                  faces: IntArray) -> BoolArray:
     """Whether each triangle faces the camera centre.
@@ -127,19 +188,8 @@ def front_facing(camera: PinholeCamera, vertices_world: FloatArray,
     -------
     front : (F,) bool
     """
-    v0, v1, v2 = (vertices_world[faces[:, k]] for k in range(3))
-    normals = np.cross(v1 - v0, v2 - v0)
-    return np.einsum('ij,ij->i', normals, camera.center_world - v0) > 0.0
-
-
-def _edge_normals(uv: FloatArray, a: IntArray, b: IntArray, o: IntArray) -> FloatArray:
-    """Unit perpendiculars of the image segments a-b pointing away from o; 0 if degenerate."""
-    t = uv[b] - uv[a]
-    n = np.column_stack([t[:, 1], -t[:, 0]])
-    side = np.einsum('ij,ij->i', n, uv[o] - uv[a])
-    n *= -np.sign(side)[:, None]
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    return np.divide(n, length, out=np.zeros_like(n), where=length > _MIN_LENGTH_PX)
+    return _front_facing(np.ascontiguousarray(vertices_world, dtype=np.float64),
+                         np.ascontiguousarray(faces, dtype=np.int64), camera.center_world)
 
 
 def contour_points(camera: PinholeCamera, vertices_world: ArrayLike, edges: MeshEdges,
@@ -164,25 +214,14 @@ def contour_points(camera: PinholeCamera, vertices_world: ArrayLike, edges: Mesh
     ContourPoints
         Empty arrays when the model has no visible contour in this view.
     """
-    verts = np.asarray(vertices_world, dtype=np.float64)
+    verts = np.ascontiguousarray(vertices_world, dtype=np.float64)
     check_shape('vertices_world', verts, (raster.uv_px.shape[0], 3))
-    front = front_facing(camera, verts, edges.faces)
-    side = front[edges.faces_of_edge]
-    on_contour = side[:, 0] != side[:, 1]
-    e_verts = edges.vertices[on_contour]
-    # The opposite vertex of the front-facing one of the two triangles.
-    opp = np.where(side[on_contour, 0], edges.opposite[on_contour, 0],
-                   edges.opposite[on_contour, 1])
+    front = _front_facing(verts, edges.faces, camera.center_world)
     uv = raster.uv_px
-    n_edge = _edge_normals(uv, e_verts[:, 0], e_verts[:, 1], opp)
-    # bincount is the fast scatter-add (np.add.at is ~10x slower).
-    ends = e_verts.T.ravel()
-    acc = np.column_stack([np.bincount(ends, np.tile(n_edge[:, k], 2), minlength=uv.shape[0])
-                           for k in range(2)])
-    ids = np.unique(e_verts)
-    length = np.linalg.norm(acc[ids], axis=1)
-    ids = ids[raster.visible_vertices[ids] & (length > _MIN_LENGTH_PX)]
-    normals = acc[ids] / np.linalg.norm(acc[ids], axis=1, keepdims=True)
+    acc, on = _contour_normals(uv, front, edges.vertices, edges.faces_of_edge, edges.opposite)
+    length = np.hypot(acc[:, 0], acc[:, 1])
+    ids = np.flatnonzero(on & raster.visible_vertices & (length > _MIN_LENGTH_PX))
+    normals = acc[ids] / length[ids, None]
     return ContourPoints(vertex_ids=ids, uv_px=uv[ids], normals_px=normals,
                          is_outer=_outside_is_background(raster, uv[ids], normals,
                                                          config.outer_probe_px))

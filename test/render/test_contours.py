@@ -93,3 +93,43 @@ def test_no_contour_when_the_mesh_is_behind_the_camera():
     contour = contour_points(cam, mesh.vertices, MeshEdges.from_faces(mesh.faces), raster)
     assert contour.vertex_ids.shape == (0,) and contour.normals_px.shape == (0, 2)
     assert not edge_image(raster).any()
+
+
+def _reference_contour(cam, vertices, edges, raster):
+    """The plain numpy form of the contour kernels: (ids, normals)."""
+    v0, v1, v2 = (vertices[edges.faces[:, k]] for k in range(3))
+    front = np.einsum('ij,ij->i', np.cross(v1 - v0, v2 - v0), cam.center_world - v0) > 0.0
+    side = front[edges.faces_of_edge]
+    on_contour = side[:, 0] != side[:, 1]
+    a, b = edges.vertices[on_contour].T
+    o = np.where(side[on_contour, 0], edges.opposite[on_contour, 0],
+                 edges.opposite[on_contour, 1])
+    uv = raster.uv_px
+    t = uv[b] - uv[a]
+    n = np.column_stack([t[:, 1], -t[:, 0]])
+    n *= -np.sign(np.einsum('ij,ij->i', n, uv[o] - uv[a]))[:, None]
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.divide(n, length, out=np.zeros_like(n), where=length > 1e-9)
+    ends = np.concatenate([a, b])
+    acc = np.column_stack([np.bincount(ends, np.tile(n[:, k], 2), minlength=uv.shape[0])
+                           for k in range(2)])
+    ids = np.unique(ends)
+    ids = ids[raster.visible_vertices[ids] & (np.linalg.norm(acc[ids], axis=1) > 1e-9)]
+    return ids, acc[ids] / np.linalg.norm(acc[ids], axis=1, keepdims=True), front
+
+
+def test_contour_kernels_match_the_numpy_reference():
+    from hand_tracker_ros.model.hand import HandModel
+    model = HandModel.build()
+    rng = np.random.default_rng(3)
+    theta = model.neutral_theta((0.0, 0.0, 0.0))
+    theta[6:] += rng.uniform(-0.2, 0.2, theta.size - 6)
+    verts = model.pose(np.clip(theta, model.lower, model.upper), jacobian=False).vertices_m
+    edges = MeshEdges.from_faces(model.faces)
+    for cam in CameraRig.ring(4, 320, 240):
+        raster = render(cam, verts, model.faces)
+        contour = contour_points(cam, verts, edges, raster)
+        ids, normals, front = _reference_contour(cam, verts, edges, raster)
+        np.testing.assert_array_equal(front_facing(cam, verts, edges.faces), front)
+        np.testing.assert_array_equal(contour.vertex_ids, ids)
+        np.testing.assert_allclose(contour.normals_px, normals, rtol=0, atol=1e-14)
