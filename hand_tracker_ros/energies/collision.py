@@ -175,6 +175,8 @@ class CollisionEnergy:
 
     def residuals(self, posed: Any, pairs: CollisionPairs) -> FloatArray:
         """Residuals ``r (M,)`` float64 of ``posed.vertices_m`` for the round's constraints."""
+        if pairs.n_residuals == 0:  # the common case; skips the cone geometry's dispatch
+            return np.zeros(0)
         return self._rho(posed.vertices_m, pairs.vertex_ids, pairs.face_ids)
 
     def linearize(self, posed: Any, pairs: CollisionPairs) -> tuple[FloatArray, FloatArray]:
@@ -184,6 +186,8 @@ class CollisionEnergy:
             msg = '`posed.vertices_jac` is None: pose the hand with jacobian=True'
             raise ShapeError(msg)
         check_shape('posed.vertices_jac', jac, (self._n_vertices, 3, None))
+        if pairs.n_residuals == 0:
+            return np.zeros(0), np.zeros((0, jac.shape[2]))
         scale = 1.0 / self.config.model_unit_m
         tri_ids = self.faces[pairs.face_ids]
         rho, d_pt, d_tri = cone_field.residual_and_gradients(
