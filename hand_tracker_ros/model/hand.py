@@ -9,7 +9,7 @@ vertices and sphere centres with respect to ``theta`` (P,).
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -37,9 +37,13 @@ def _readonly(*arrays: np.ndarray) -> None:
         a.setflags(write=False)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PosedHand:
     """The hand at one pose; ``*_jac`` are None when posed with ``jacobian=False``.
+
+    The vertex normals and the sphere-mesh centres are computed on first access: the
+    tracker's Levenberg-Marquardt evaluations pose the hand some 30 times per frame and use
+    neither (they cost about as much as the skinning itself).
 
     Attributes
     ----------
@@ -51,9 +55,10 @@ class PosedHand:
     vertices_m : (V, 3) float64
         Skinned mesh; ``vertices_jac`` (V, 3, P).
     vertex_normals : (V, 3) float64
-        Unit outward normals.
+        Unit outward normals (lazy).
     sphere_centers_m : (S, 3) float64
-        Sphere-mesh centres; ``sphere_centers_jac`` (S, 3, P). Radii do not change with pose.
+        Sphere-mesh centres; ``sphere_centers_jac`` (S, 3, P) (both lazy). Radii do not
+        change with pose.
     fingertip_vertex_ids : (5,) int64
     """
 
@@ -63,10 +68,28 @@ class PosedHand:
     keypoints_jac: FloatArray | None
     vertices_m: FloatArray
     vertices_jac: FloatArray | None
-    vertex_normals: FloatArray
-    sphere_centers_m: FloatArray
-    sphere_centers_jac: FloatArray | None
     fingertip_vertex_ids: IntArray
+    _model: HandModel = field(repr=False)
+    _fk: kinematics.FKResult = field(repr=False)
+
+    @functools.cached_property
+    def vertex_normals(self) -> FloatArray:
+        """Unit outward vertex normals (V, 3) float64."""
+        return vertex_normals(self.vertices_m, self._model.faces)
+
+    @functools.cached_property
+    def sphere_centers_m(self) -> FloatArray:
+        """Sphere-mesh centres (S, 3) float64."""
+        return kinematics.transform_points(self._fk, self._model.sphere_part,
+                                           self._model.sphere_local_m)
+
+    @functools.cached_property
+    def sphere_centers_jac(self) -> FloatArray | None:
+        """Jacobian (S, 3, P) float64 of the sphere centres; None without ``jacobian``."""
+        if self.vertices_jac is None:
+            return None
+        return kinematics.points_jacobian(self._fk, self._model.sphere_part,
+                                          self.sphere_centers_m)
 
     @property
     def fingertips_m(self) -> FloatArray:
@@ -175,23 +198,19 @@ class HandModel:
         skin_t = fk.bone_transforms @ self._rest_inv
         kp_bones = np.asarray(KEYPOINT_BONES)
         keypoints = kinematics.transform_points(fk, kp_bones, self.keypoint_local_m)
-        spheres = kinematics.transform_points(fk, self.sphere_part, self.sphere_local_m)
         if jacobian:
             verts, verts_jac = skin_with_jacobian(
                 skin_t, self.rest_vertices_m, self.influence_bones, self.influence_weights,
                 self.bone_dofs, fk.axes, fk.pivots)
             kp_jac = kinematics.points_jacobian(fk, kp_bones, keypoints)
-            sp_jac = kinematics.points_jacobian(fk, self.sphere_part, spheres)
         else:
             verts = skin(skin_t, self.rest_vertices_m, self.influence_bones,
                          self.influence_weights)
-            verts_jac = kp_jac = sp_jac = None
+            verts_jac = kp_jac = None
         return PosedHand(theta=theta.copy(), bone_transforms=fk.bone_transforms,
                          keypoints_m=keypoints, keypoints_jac=kp_jac, vertices_m=verts,
-                         vertices_jac=verts_jac,
-                         vertex_normals=vertex_normals(verts, self.faces),
-                         sphere_centers_m=spheres, sphere_centers_jac=sp_jac,
-                         fingertip_vertex_ids=self.fingertip_vertex_ids)
+                         vertices_jac=verts_jac, fingertip_vertex_ids=self.fingertip_vertex_ids,
+                         _model=self, _fk=fk)
 
 
 @functools.lru_cache(maxsize=8)
