@@ -17,7 +17,10 @@ def test_live_graph_tracks_a_bag_like_the_offline_path(tmp_path: Path, hand_mode
     bag = write_sequence(SyntheticSequence(SynthConfig(motion='pinch', n_frames=40,
                                                        n_cameras=3, seed=4), hand_model),
                          tmp_path / 'synthetic')
-    outcome = replay(bag, tmp_path / 'replay', rate=0.1)
+    # 0.05x: a set every 0.67 s of wall time, so a busy shared machine (CI, other jobs) does
+    # not make the tracker skip sets; the bar is on published estimates, not on speed
+    # (bench/bench_live_graph.py measures that).
+    outcome = replay(bag, tmp_path / 'replay', rate=0.05)
     assert outcome.joint_states >= 0.95 * outcome.input_sets
     assert outcome.scores is not None
     offline = offline_mean_error_mm(str(bag), None)
