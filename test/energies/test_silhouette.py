@@ -4,9 +4,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+import scipy.spatial
 
 from hand_tracker_ros.energies.silhouette import (SilhouetteConfig, SilhouetteEnergy,
-                                                  nearest_foreground)
+                                                  nearest_foreground, nearest_point)
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.layout import PARAM_NAMES
@@ -101,6 +102,19 @@ def _perturbed(truth: np.ndarray) -> np.ndarray:
     theta = truth.copy()
     theta[:6] += [0.006, -0.004, 0.003, 0.05, -0.04, 0.03]
     return theta
+
+
+def test_nearest_point_matches_a_kd_tree() -> None:
+    rng = np.random.default_rng(5)
+    points = rng.uniform(0, 100, (300, 2))
+    queries = rng.uniform(-20, 120, (400, 2))
+    gap, index = nearest_point(queries, points, 6.0)
+    ref_gap, ref_index = scipy.spatial.cKDTree(points).query(queries, distance_upper_bound=6.0)
+    assert np.isinf(gap).any() and np.isfinite(gap).any()
+    np.testing.assert_array_equal(index, ref_index)
+    np.testing.assert_allclose(gap, ref_gap, rtol=1e-12)
+    gap, index = nearest_point(queries, np.zeros((0, 2)), 6.0)
+    assert np.isinf(gap).all() and (index == 0).all()
 
 
 def test_jacobian_matches_central_differences(scene) -> None:
