@@ -41,12 +41,13 @@ def test_shipped_model_finds_visible_tips_on_held_out_views(detector, views):
 
 
 def test_verifier_beats_vote_height_on_held_out_views(detector, views):
-    # A one-leaf verifier of probability 1 keeps the 5 highest vote peaks: the ranking of
-    # a detector without the second stage.
+    # One-leaf verifiers of probability 1 keep the 5 highest vote peaks: the ranking of
+    # a detector without the verifier stages.
     accept_all = ForestArrays(roots=np.zeros(1, np.int32), left=np.full(1, -1, np.int32),
                               right=np.full(1, -1, np.int32), feature=np.full(1, -1, np.int32),
                               threshold=np.zeros(1), value=np.ones((1, 1)))
-    plain = FingertipDetector(dataclasses.replace(detector.model, verifier=accept_all))
+    plain = FingertipDetector(dataclasses.replace(detector.model, verifier=accept_all,
+                                                  context=accept_all))
     verified, unverified = DetectionTally(), DetectionTally()
     for view in views:
         verified.add(detector.detect(view.image), view.tips_uv, view.tips_visible)
@@ -126,6 +127,8 @@ def test_model_save_load_round_trip(detector, tmp_path):
     np.testing.assert_array_equal(again.forest.value, model.forest.value)
     np.testing.assert_array_equal(again.verifier.threshold, model.verifier.threshold)
     np.testing.assert_array_equal(again.verifier.value, model.verifier.value)
+    np.testing.assert_array_equal(again.context.threshold, model.context.threshold)
+    np.testing.assert_array_equal(again.context.value, model.context.value)
     assert (again.gate, again.stride, again.vote_norm, again.peak_floor, again.max_peaks) == (
         model.gate, model.stride, model.vote_norm, model.peak_floor, model.max_peaks)
 

@@ -59,6 +59,8 @@ def test_training_is_deterministic(hand_model, tmp_path):
     assert 0 < model.gate < 255 and model.vote_norm > 0.0
     assert model.verifier.roots.size == TINY.verifier_trees
     assert model.verifier.value.shape[1] == 1
+    assert model.context.roots.size == TINY.verifier_trees
+    assert model.context.value.shape[1] == 1
 
 
 def test_cli_writes_a_loadable_model(tmp_path, capsys):

@@ -4,8 +4,8 @@ import cv2
 import numpy as np
 
 from hand_tracker_ros.vision.detector.channels import SKIN_CHANNEL
-from hand_tracker_ros.vision.detector.verifier import N_ANGLES, N_FEATURES, RING_RADII_PX, \
-    peak_features
+from hand_tracker_ros.vision.detector.verifier import N_ANGLES, N_CONTEXT, N_FEATURES, \
+    RING_RADII_PX, context_features, peak_features
 
 _RING = 10  # features per ring radius, after the 3 peak features
 
@@ -64,3 +64,22 @@ def test_no_peaks_give_an_empty_matrix():
     channels, mask, _ = _finger(0.0)
     features = peak_features(np.zeros((0, 2)), np.zeros(0), channels, mask, 1.0)
     assert features.shape == (0, N_FEATURES)
+
+
+def test_context_features():
+    uv = np.array([[0.0, 0.0], [6.0, 8.0], [100.0, 0.0]])
+    score = np.array([0.5, 0.9, 0.2])
+    context = context_features(uv, score)
+    assert context.shape == (3, N_CONTEXT) and context.dtype == np.float32
+    np.testing.assert_allclose(context[:, 0], score, rtol=1e-6)
+    np.testing.assert_array_equal(context[:, 1], [1, 0, 2])                       # rank
+    np.testing.assert_allclose(context[:, 2], score / 0.9, rtol=1e-6)
+    np.testing.assert_allclose(context[:, 3], 1.6, rtol=1e-6)                    # top-5 sum
+    np.testing.assert_allclose(context[:, 4], [10.0, 99.0, np.hypot(94.0, 8.0)], rtol=1e-6)
+    # within 10 px: the first two see each other, the third is alone (no higher score).
+    np.testing.assert_allclose(context[:, 5], [0.9, 0.5, 0.0], rtol=1e-6)
+    np.testing.assert_array_equal(context[:, 6], [1, 1, 0])
+
+
+def test_context_of_no_peaks_is_empty():
+    assert context_features(np.zeros((0, 2)), np.zeros(0)).shape == (0, N_CONTEXT)

@@ -8,7 +8,8 @@ so every skin pixel near a tip votes for the same centre and the evidence adds u
 single pixels are ambiguous. Trees are evaluated with a few integer comparisons per level,
 which keeps the detector within a few ms per 320x240 image without a GPU. Vote height alone
 cannot tell a tip from a knuckle or the wrist end (their peaks are as high), so a second,
-small forest re-scores the few highest peaks from their surroundings.
+small forest re-scores the few highest peaks from their surroundings, and a third one
+re-scores them again knowing the scores of the other peaks of the image.
 
 Per image:
 
@@ -25,7 +26,9 @@ Per image:
    training views; each peak is refined to sub-pixel precision by the vote centroid in a
    5 x 5 window of :math:`A`;
 4. the verifier forest maps each peak's features (:mod:`.verifier`: vote height, rank,
-   ring profiles of skin, gate mask and luma) to a tip probability :math:`s`; peaks with
+   ring profiles of skin, gate mask and luma) to a tip probability :math:`s_1`; the context
+   verifier maps the same features plus the context of all :math:`s_1` of the image
+   (:func:`.verifier.context_features`) to the tip probability :math:`s`; peaks with
    :math:`s \ge` ``min_score`` are the detections, at most ``max_detections``, highest
    :math:`s` first.
 """
@@ -45,7 +48,7 @@ from hand_tracker_ros.tracking.observations import SalientDetections
 from hand_tracker_ros.vision.detector.channels import candidates, compute_channels, gate_image
 from hand_tracker_ros.vision.detector.forest import pack_nodes, predict, vote
 from hand_tracker_ros.vision.detector.model import DetectorModel
-from hand_tracker_ros.vision.detector.verifier import peak_features
+from hand_tracker_ros.vision.detector.verifier import context_features, peak_features
 from hand_tracker_ros.vision.image import check_rgb
 
 logger = logging.getLogger(__name__)
@@ -139,9 +142,8 @@ class FingertipDetector:
         self.config = config
         self._packed = pack_nodes(model.forest, model.bank)
         self._weight, self._offset = model.forest.votes(model.radius_px)
-        verifier = model.verifier
-        self._verifier_nodes = (verifier.roots, verifier.left, verifier.right, verifier.feature,
-                                verifier.threshold, verifier.value)
+        self._verifier_nodes = model.verifier.nodes()
+        self._context_nodes = model.context.nodes()
 
     @classmethod
     def load(cls, path: str | Path | None = None,
@@ -183,6 +185,12 @@ class FingertipDetector:
         uv = refine(accumulator, uv)
         return uv, peak_features(uv, height, channels, gate_mask, model.vote_norm)
 
+    def scores(self, uv_px: FloatArray, features: Float32Array) -> FloatArray:
+        """Tip probability (N,) float64 of the peaks ``uv_px`` (N, 2) of one image (step 4)."""
+        first = predict(self._verifier_nodes, features)[:, 0]
+        both = np.concatenate([features, context_features(uv_px, first)], axis=1)
+        return predict(self._context_nodes, both)[:, 0]
+
     def detect(self, image_rgb: UInt8Array) -> SalientDetections:
         """Fingertip candidates of one image.
 
@@ -203,7 +211,7 @@ class FingertipDetector:
         """
         cfg = self.config
         uv, features = self.peaks(image_rgb)
-        score = predict(self._verifier_nodes, features)[:, 0]
+        score = self.scores(uv, features)
         keep = np.flatnonzero(score >= cfg.min_score)
         keep = keep[np.argsort(-score[keep], kind='stable')][:cfg.max_detections]
         return SalientDetections(uv[keep], np.minimum(score[keep], 1.0))

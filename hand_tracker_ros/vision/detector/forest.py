@@ -61,6 +61,11 @@ class ForestArrays:
         check_shape('value', self.value, (n, None))
         check_shape('roots', self.roots, (None,))
 
+    def nodes(self) -> tuple:
+        """``(roots, left, right, feature, threshold, value)``: the ``forest_nodes`` of
+        :func:`predict`."""
+        return self.roots, self.left, self.right, self.feature, self.threshold, self.value
+
     def votes(self, radius_px: float) -> tuple[Float32Array, Float32Array]:
         """Per-node vote weight (M,) float32 and offset (M, 2) float32 (dx, dy px)."""
         weight = np.clip(self.value[:, 0], 0.0, 1.0)

@@ -1,7 +1,7 @@
 """The trained fingertip detector model and its ``.npz`` file.
 
 The file holds plain arrays only (no pickles): the feature bank, the flat Hough forest, the
-flat verifier forest (``verifier_*`` members), the skin table, and the scalars the detector
+flat verifier forests (``verifier_*`` and ``context_*`` members), the skin table, and the scalars the detector
 needs (candidate stride and gate, positive radius, vote normaliser, peak floor and count).
 It is written as a zip with fixed member timestamps, so training with the same seed writes
 the same bytes (``numpy.savez`` stamps the current time).
@@ -26,6 +26,7 @@ DEFAULT_MODEL_NAME = 'fingertip_forest.npz'
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 _FOREST_KEYS = ('roots', 'left', 'right', 'feature', 'threshold', 'value')
 _VERIFIER_KEYS = tuple(f'verifier_{k}' for k in _FOREST_KEYS)
+_CONTEXT_KEYS = tuple(f'context_{k}' for k in _FOREST_KEYS)
 _SCALAR_KEYS = ('stride', 'gate', 'radius_px', 'vote_norm', 'peak_floor', 'max_peaks', 'seed')
 
 
@@ -46,6 +47,9 @@ class DetectorModel:
         Hough forest (value K = 3).
     verifier : ForestArrays
         Peak verifier (value K = 1) over :func:`.verifier.peak_features`.
+    context : ForestArrays
+        Auto-context verifier (value K = 1) over the peak features followed by
+        :func:`.verifier.context_features` of the first verifier's scores.
     skin_lut : (SKIN_BINS, SKIN_BINS) uint8
         Skin likelihood per chroma bin.
     stride : int
@@ -68,6 +72,7 @@ class DetectorModel:
     bank: Int32Array
     forest: ForestArrays
     verifier: ForestArrays
+    context: ForestArrays
     skin_lut: UInt8Array
     stride: int
     gate: int
@@ -92,8 +97,9 @@ class DetectorModel:
         arrays = {'bank': self.bank, 'skin_lut': self.skin_lut,
                   **{k: getattr(self.forest, k) for k in _FOREST_KEYS},
                   **{f'verifier_{k}': getattr(self.verifier, k) for k in _FOREST_KEYS},
+                  **{f'context_{k}': getattr(self.context, k) for k in _FOREST_KEYS},
                   **{k: np.asarray(getattr(self, k)) for k in _SCALAR_KEYS}}
-        for key in ('value', 'verifier_value'):
+        for key in ('value', 'verifier_value', 'context_value'):
             arrays[key] = arrays[key].astype(np.float32)
         with zipfile.ZipFile(path, 'w', compression=zipfile.ZIP_DEFLATED) as archive:
             for name, array in arrays.items():
@@ -120,12 +126,12 @@ class DetectorModel:
             raise ConfigError(msg)
         with np.load(path, allow_pickle=False) as data:
             missing = sorted({'bank', 'skin_lut', *_FOREST_KEYS, *_VERIFIER_KEYS,
-                              *_SCALAR_KEYS} - set(data))
+                              *_CONTEXT_KEYS, *_SCALAR_KEYS} - set(data))
             if missing:
                 msg = f'detector model {path} lacks {", ".join(missing)}'
                 raise ConfigError(msg)
             return cls(bank=data['bank'].astype(np.int32), forest=_forest(data, ''),
-                       verifier=_forest(data, 'verifier_'),
+                       verifier=_forest(data, 'verifier_'), context=_forest(data, 'context_'),
                        skin_lut=data['skin_lut'].astype(np.uint8), stride=int(data['stride']),
                        gate=int(data['gate']), radius_px=float(data['radius_px']),
                        vote_norm=float(data['vote_norm']),

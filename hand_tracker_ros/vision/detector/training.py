@@ -25,6 +25,9 @@ Steps, all deterministic in the seed:
    (peaks near only invisible tips are left out), and fit the verifier forest on their
    :func:`.verifier.peak_features`. Fresh scenes matter: on its own training views the
    forest's peaks are cleaner than on new images, and the verifier must learn the latter.
+8. fit the context verifier on the same peaks, their features followed by
+   :func:`.verifier.context_features` of the first verifier's out-of-bag scores
+   (:func:`fit_verifiers`).
 
 Forest defaults come from a small ablation (400 training views, one fit, average precision
 of "tip within R" over all candidates of 60 held-out views): 256 tests in a +-16 px window
@@ -59,6 +62,16 @@ views of the bench's held-out seed):
   (0.766 / 0.742 at min_score 0.3).
   Ranking the same forest's peaks (10 trees, stride 4) by vote height instead of by the
   verifier gives 0.05-0.07 lower precision at equal recall on either half of the 300 views.
+- context verifier (issue 4; all 300 bench views, default recipe, min_score 0.4): 0.845 /
+  0.730 vs 0.819 / 0.700 without (0.809 / 0.765 at 0.3). Diagnosis before it: the
+  forest's top-20 peaks hold a peak within 8 px of 92% of visible tips (75% within 4 px),
+  so scoring, not candidates, loses most tips; nearest-peak scores fall with the peak's
+  distance to its tip (>= 0.4 for 90% of peaks within 2 px, 52% at 4-6 px). Things that
+  did not help the verifier (same peaks, min_score 0.4-0.6): 100 trees of 2000 leaves,
+  max_features 0.6, raw ring samples rotated to the finger direction (288 more
+  features); smoothing sigma 2 / NMS 3 px (97% of tips with a peak within 8 px, but
+  precision at equal recall 0.01-0.02 lower); an offset regressor moving each peak
+  towards its tip (peaks within 4 px 75% -> 77%).
 """
 from __future__ import annotations
 
@@ -80,6 +93,7 @@ from hand_tracker_ros.vision.detector.detector import (DetectorConfig, Fingertip
                                                        smooth_votes)
 from hand_tracker_ros.vision.detector.forest import ForestArrays, predict
 from hand_tracker_ros.vision.detector.model import DetectorModel
+from hand_tracker_ros.vision.detector.verifier import context_features
 
 logger = logging.getLogger(__name__)
 
@@ -210,36 +224,63 @@ def export_forest(estimators: list) -> ForestArrays:
                         value=np.concatenate(value).astype(np.float64))
 
 
-def _fit_regression_forest(features: np.ndarray, targets: FloatArray, n_trees: int,
-                           max_leaves: int, min_samples_leaf: int, max_features: float,
-                           seed: int, n_jobs: int) -> ForestArrays:
-    """A bootstrapped scikit-learn regression forest on (N, F) features, exported."""
+def _regression_forest(features: np.ndarray, targets: FloatArray, n_trees: int,
+                       max_leaves: int, min_samples_leaf: int, max_features: float, seed: int,
+                       n_jobs: int, oob: bool = False):
+    """A bootstrapped scikit-learn regression forest fitted on (N, F) features.
+
+    With ``oob`` it also holds ``oob_prediction_``: each sample predicted by the trees whose
+    bootstrap left it out (0 for the rare sample every tree drew).
+    """
     from sklearn.ensemble import RandomForestRegressor
 
     forest = RandomForestRegressor(
         n_estimators=n_trees, max_leaf_nodes=max_leaves, min_samples_leaf=min_samples_leaf,
-        max_features=max_features, bootstrap=True, random_state=seed, n_jobs=n_jobs)
-    forest.fit(features.astype(np.float32), targets)
-    return export_forest(forest.estimators_)
+        max_features=max_features, bootstrap=True, oob_score=oob, random_state=seed,
+        n_jobs=n_jobs)
+    return forest.fit(features.astype(np.float32), targets)
 
 
 def fit_forest(features: np.ndarray, targets: FloatArray, cfg: TrainingConfig,
                seed: int) -> ForestArrays:
     """Fit the Hough forest on (N, F) features and (N, 3) targets; export it."""
-    return _fit_regression_forest(features, targets, cfg.n_trees, cfg.max_leaves,
-                                  cfg.min_samples_leaf, cfg.max_features, seed, cfg.n_jobs)
+    return export_forest(_regression_forest(features, targets, cfg.n_trees, cfg.max_leaves,
+                                            cfg.min_samples_leaf, cfg.max_features, seed,
+                                            cfg.n_jobs).estimators_)
 
 
-def fit_verifier(features: np.ndarray, labels: FloatArray, cfg: TrainingConfig,
-                 seed: int) -> ForestArrays:
-    """Fit the verifier on (N, verifier.N_FEATURES) peak features and (N,) 0/1 labels.
+def fit_verifiers(samples: list[PeakSamples], cfg: TrainingConfig,
+                  seed: int) -> tuple[ForestArrays, ForestArrays]:
+    """Fit the verifier and the context verifier on the vote peaks of the verifier views.
 
-    A regression forest on 0/1 labels predicts the leaf frequency of true tips, i.e. the
-    tip probability, and exports to the same flat arrays as the Hough forest (K = 1).
+    Both are regression forests on 0/1 labels: they predict the leaf frequency of true tips,
+    i.e. the tip probability, and export to the same flat arrays as the Hough forest
+    (K = 1). The context features of the training peaks come from the first verifier's
+    out-of-bag scores (scores of labelled peaks by trees that never saw them; peaks left
+    out of its training are scored by all trees), so the context verifier learns from the
+    scores the first one gives on new images, not from its fit to its own training set.
+
+    Returns
+    -------
+    verifier, context : ForestArrays
     """
-    return _fit_regression_forest(features, labels, cfg.verifier_trees,
-                                  cfg.verifier_max_leaves, cfg.verifier_min_samples_leaf,
-                                  cfg.verifier_max_features, seed, cfg.n_jobs)
+    features = np.concatenate([s.features for s in samples])
+    labels = np.concatenate([s.labels for s in samples])
+    keep = np.concatenate([s.keep for s in samples])
+    first = _regression_forest(features[keep], labels[keep], cfg.verifier_trees,
+                               cfg.verifier_max_leaves, cfg.verifier_min_samples_leaf,
+                               cfg.verifier_max_features, seed, cfg.n_jobs, oob=True)
+    verifier = export_forest(first.estimators_)
+    score = predict(verifier.nodes(), features.astype(np.float32))[:, 0]
+    score[keep] = first.oob_prediction_
+    split = np.cumsum([s.uv_px.shape[0] for s in samples])[:-1]
+    context = np.concatenate([context_features(s.uv_px, part) for s, part in
+                              zip(samples, np.split(score, split), strict=True)])
+    both = np.concatenate([features, context], axis=1)
+    second = _regression_forest(both[keep], labels[keep], cfg.verifier_trees,
+                                cfg.verifier_max_leaves, cfg.verifier_min_samples_leaf,
+                                cfg.verifier_max_features, seed, cfg.n_jobs)
+    return verifier, export_forest(second.estimators_)
 
 
 def _accept_all() -> ForestArrays:
@@ -249,35 +290,47 @@ def _accept_all() -> ForestArrays:
                         threshold=np.zeros(1), value=np.ones((1, 1)))
 
 
-def _verifier_samples(detector: FingertipDetector, views: Iterable[LabelledView],
-                      radius_px: float) -> tuple[np.ndarray, FloatArray]:
-    """Verifier training samples from the vote peaks of ``views``.
+@dataclass(frozen=True, eq=False)
+class PeakSamples:
+    """The vote peaks of one verifier view.
 
-    Returns
-    -------
+    Attributes
+    ----------
+    uv_px : (N, 2) float64
+        Peak positions.
     features : (N, verifier.N_FEATURES) float32
     labels : (N,) float64
-        1 within ``radius_px`` of a visible tip, 0 farther than that from every tip; peaks
-        near only invisible tips are left out (the evaluation counts them neither way).
+        1 within ``verify_radius_px`` of a visible tip, else 0.
+    keep : (N,) bool
+        Labelled peaks: false for peaks near only invisible tips (the evaluation counts
+        them neither way, so no verifier trains on them; they still give context).
     """
-    blocks, labels = [], []
+
+    uv_px: FloatArray
+    features: np.ndarray
+    labels: FloatArray
+    keep: np.ndarray
+
+
+def _verifier_samples(detector: FingertipDetector, views: Iterable[LabelledView],
+                      radius_px: float) -> list[PeakSamples]:
+    """The vote peaks of ``views`` with their features and labels, one entry per view."""
+    samples = []
     for view in views:
         uv, features = detector.peaks(view.image)
         tips = np.nan_to_num(view.tips_uv, nan=-1e9)
         near = np.linalg.norm(uv[:, None] - tips[None], axis=2) <= radius_px   # (N, 5)
         positive = (near & view.tips_visible).any(axis=1)
-        keep = positive | ~near.any(axis=1)
-        blocks.append(features[keep])
-        labels.append(positive[keep].astype(np.float64))
-    return np.concatenate(blocks), np.concatenate(labels)
+        samples.append(PeakSamples(uv, features, positive.astype(np.float64),
+                                   positive | ~near.any(axis=1)))
+    return samples
 
 
 def _hard_negatives(forest: ForestArrays, bank: np.ndarray, lut: UInt8Array, gate: int,
                     views: list[LabelledView], cfg: TrainingConfig
                     ) -> tuple[np.ndarray, FloatArray]:
     """Features (N, F) int16 and zero targets (N, 3) of the hardest negative candidates."""
-    nodes = (forest.roots, forest.left, forest.right, forest.feature, forest.threshold,
-             forest.value)
+    nodes = forest.nodes()
     blocks = []
     for view in views:
         channels = compute_channels(view.image, lut)
@@ -328,7 +381,8 @@ def train(seed: int, cfg: TrainingConfig = TrainingConfig(),
         logger.info('refitting with %d hard negatives', len(hard))
         forest = fit_forest(np.concatenate([features, hard]), np.concatenate([target, zeros]),
                             cfg, seed)
-    provisional = DetectorModel(bank=bank, forest=forest, verifier=_accept_all(), skin_lut=lut,
+    provisional = DetectorModel(bank=bank, forest=forest, verifier=_accept_all(),
+                                context=_accept_all(), skin_lut=lut,
                                 stride=cfg.stride, gate=gate, radius_px=cfg.radius_px,
                                 vote_norm=1.0, peak_floor=cfg.peak_floor,
                                 max_peaks=cfg.max_peaks, seed=seed)
@@ -338,8 +392,8 @@ def train(seed: int, cfg: TrainingConfig = TrainingConfig(),
     # Scene numbers from n_views on were never rendered for the forest (a scene has at
     # least one view), so the verifier learns from the forest's held-out behaviour.
     fresh = labelled_views(cfg.verifier_views, seed, model=model, first_scene=cfg.n_views)
-    features, labels = _verifier_samples(FingertipDetector(provisional), fresh,
-                                         cfg.verify_radius_px)
-    logger.info('verifier on %d peaks (%d true tips)', len(labels), int(labels.sum()))
-    verifier = fit_verifier(features, labels, cfg, seed)
-    return dataclasses.replace(provisional, verifier=verifier)
+    samples = _verifier_samples(FingertipDetector(provisional), fresh, cfg.verify_radius_px)
+    logger.info('verifiers on %d peaks (%d true tips)', sum(int(s.keep.sum()) for s in samples),
+                sum(int(s.labels.sum()) for s in samples))
+    verifier, context = fit_verifiers(samples, cfg, seed)
+    return dataclasses.replace(provisional, verifier=verifier, context=context)

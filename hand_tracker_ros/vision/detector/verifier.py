@@ -25,6 +25,15 @@ direction, so the forest needs no rotated examples. Luma terms give the contour 
 seen against the palm, where chroma is skin on both sides.
 Adding the ring profiles to the three peak features raised held-out precision at the
 same recall from 0.81 to 0.87 in our ablation (400 training views for the verifier).
+
+A second verifier (auto-context, Tu 2008) re-scores each peak from the same features plus
+:func:`context_features` of the first verifier's scores :math:`s` of all peaks of the image:
+its own :math:`s_i`, its rank by :math:`s`, :math:`s_i / \max s`, the sum of the 5 highest
+:math:`s`, the distance to the nearest peak of higher :math:`s`, and per radius
+:math:`\rho \in` ``CONTEXT_RADII_PX`` the highest :math:`s` of the other peaks within
+:math:`\rho` and their number. A hand has five tips in a row of similar score, a knuckle
+sits next to a stronger tip, clutter is isolated. On the 300 held-out bench views (same
+peaks, 1200 verifier views) it raised precision at recall 0.72 from 0.82 to 0.84.
 """
 from __future__ import annotations
 
@@ -36,6 +45,10 @@ from hand_tracker_ros.vision.detector.channels import SKIN_CHANNEL
 RING_RADII_PX = (4, 6, 9, 13)
 N_ANGLES = 16
 N_FEATURES = 3 + 10 * len(RING_RADII_PX)
+CONTEXT_RADII_PX = (10.0, 20.0)
+N_CONTEXT = 5 + 2 * len(CONTEXT_RADII_PX)
+_TOP_SCORES = 5
+_FAR_PX = 99.0
 
 _ANGLES = 2.0 * np.pi * np.arange(N_ANGLES) / N_ANGLES
 # Rows k = 1, 2, 3 of the DFT matrix over the ring samples: harmonics by one small matrix
@@ -84,3 +97,35 @@ def peak_features(uv_px: FloatArray, height: FloatArray, channels: UInt8Array,
                             np.abs(luma @ _DFT[0])[..., None]], axis=2)  # (N, R, 10)
     peak = np.column_stack([height / vote_norm, height / h_max, np.arange(n)])
     return np.concatenate([peak, rings.reshape(n, N_FEATURES - 3)], axis=1).astype(np.float32)
+
+
+def context_features(uv_px: FloatArray, score: FloatArray) -> Float32Array:
+    """Auto-context features of the vote peaks of one image (see the module docstring).
+
+    Parameters
+    ----------
+    uv_px : (N, 2) float64
+        Peak positions (u, v).
+    score : (N,) float64
+        First verifier's tip probability of each peak.
+
+    Returns
+    -------
+    features : (N, N_CONTEXT) float32
+        ``s_i, rank, s_i / max s, sum of the 5 highest s, distance (px, at most 99) to the
+        nearest peak of higher s``, then per ``CONTEXT_RADII_PX`` radius the highest ``s`` of
+        the other peaks within it (0 if none) and their number.
+    """
+    n = score.shape[0]
+    dist = np.linalg.norm(uv_px[:, None] - uv_px[None], axis=2)                # (N, N)
+    np.fill_diagonal(dist, np.inf)
+    rank = np.empty(n)
+    rank[np.argsort(-score, kind='stable')] = np.arange(n)
+    s_max = max(float(score.max(initial=0.0)), 1e-6)
+    top = np.sort(score)[::-1][:_TOP_SCORES].sum()
+    higher = np.where(score[None, :] > score[:, None], dist, _FAR_PX).min(axis=1, initial=_FAR_PX)
+    columns = [score, rank, score / s_max, np.full(n, top), higher]
+    for radius in CONTEXT_RADII_PX:
+        near = dist <= radius
+        columns += [(near * score[None]).max(axis=1, initial=0.0), near.sum(axis=1)]
+    return np.column_stack(columns).astype(np.float32).reshape(n, N_CONTEXT)
