@@ -73,6 +73,7 @@ Limitation of bone-vector limits (the seed's): a bone vector has two degrees of 
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 from typing import Any
 
 import numpy as np
@@ -205,7 +206,12 @@ def fit_plane_normal(points_m: FloatArray, fallback: FloatArray,
 
 def _signed_angle(a: FloatArray, b: FloatArray, normal: FloatArray) -> float:
     """Angle (rad) about ``normal`` from ``a`` to ``b`` (both (3,))."""
-    return float(np.arctan2(normal @ np.cross(a, b), a @ b))
+    # normal . (a x b) written out: np.cross costs ~6 us per 3-vector call, and this runs
+    # 10 times per correspondence round.
+    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
+    n0, n1, n2 = normal.tolist()
+    sine = n0 * (a1 * b2 - a2 * b1) + n1 * (a2 * b0 - a0 * b2) + n2 * (a0 * b1 - a1 * b0)
+    return math.atan2(sine, float(a @ b))
 
 
 def _project(v: FloatArray, normal: FloatArray) -> FloatArray:
