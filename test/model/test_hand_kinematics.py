@@ -4,8 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hand_tracker_ros.geometry.rotations import rot_x, rot_y, rot_z
+from hand_tracker_ros.model.kinematics import forward_kinematics
 from hand_tracker_ros.model.layout import Layout, PARAM_NAMES
-from hand_tracker_ros.model.skeleton import BONE_NAMES, FINGER_NAMES, KEYPOINT_NAMES
+from hand_tracker_ros.model.skeleton import B, BONE_NAMES, FINGER_NAMES, KEYPOINT_NAMES
 
 
 def test_layout_names_and_masks() -> None:
@@ -85,3 +87,46 @@ def test_distal_joint_does_not_move_proximal_keypoints(model) -> None:
     k = PARAM_NAMES.index('middle_dip_flex')
     moved = {KEYPOINT_NAMES[i] for i in np.flatnonzero(np.abs(jac[:, :, k]).sum(1) > 0)}
     assert moved == {'middle_tip'}
+
+
+def _numpy_forward_kinematics(rest, theta):
+    """The plain numpy form of the FK kernel (reference): transforms, axes, pivots."""
+    def rx(a):
+        return np.stack([rot_x(v) for v in np.atleast_1d(a)])
+
+    def rz(a):
+        return np.stack([rot_z(v) for v in np.atleast_1d(a)])
+
+    ry_, rz_, rx_ = (PARAM_NAMES.index(n) for n in ('hand_ry', 'hand_rz', 'hand_rx'))
+    ryz = rot_y(theta[ry_]) @ rot_z(theta[rz_])
+    r_hand, t = ryz @ rot_x(theta[rx_]), theta[0:3]
+    transforms = np.tile(np.eye(4), (B, 1, 1))
+    transforms[0, :3, :3], transforms[0, :3, 3] = r_hand, t
+    axes, pivots = np.zeros((26, 3)), np.zeros((26, 3))
+    axes[:3] = np.eye(3)
+    axes[ry_], axes[rz_], axes[rx_] = (0, 1, 0), rot_y(theta[ry_])[:, 2], ryz[:, 0]
+    pivots[3:6] = t
+    k0 = 6 + 4 * np.arange(5)
+    bones = 1 + 3 * np.arange(5)[:, None] + np.arange(3)[None, :]
+    r_abd = r_hand @ rest.rest_rot
+    r_flex = r_abd @ rz(-theta[k0 + 1])
+    rot = r_flex @ rx(theta[k0])
+    pos = t + rest.base_m @ r_hand.T
+    axes[k0 + 1], axes[k0] = -r_abd[:, :, 2], r_flex[:, :, 0]
+    pivots[k0 + 1], pivots[k0] = pos, pos
+    transforms[bones[:, 0], :3, :3], transforms[bones[:, 0], :3, 3] = rot, pos
+    for lvl in (1, 2):
+        pos = pos + rot[:, :, 1] * rest.lengths_m[:, lvl - 1, None]
+        axes[k0 + 1 + lvl], pivots[k0 + 1 + lvl] = rot[:, :, 0], pos
+        rot = rot @ rx(theta[k0 + 1 + lvl])
+        transforms[bones[:, lvl], :3, :3], transforms[bones[:, lvl], :3, 3] = rot, pos
+    return transforms, axes, pivots
+
+
+def test_fk_kernel_matches_the_numpy_form(model, random_theta) -> None:
+    for theta in (model.neutral_theta((0.01, -0.02, 0.3)),
+                  random_theta(np.random.default_rng(11))):
+        fk = forward_kinematics(model.rest, theta)
+        ref = _numpy_forward_kinematics(model.rest, theta)
+        for got, want in zip((fk.bone_transforms, fk.axes, fk.pivots), ref):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-14)
