@@ -11,8 +11,8 @@ Shared by the image terms (edges, flow, salient points). A vertex ``X_i(theta)``
 
 with ``duv_dX`` as in :meth:`PinholeCamera.project_jacobian` (distortion included) and
 ``dX/dtheta`` the rows ``posed.vertices_jac[ids]``; one numba pass per block projects,
-contracts with the normal and forms the rows without (N, 2, 3) or (N, 2, P) temporaries. A block of targets ``t_i`` (px) with square-root weights ``s_i``
-gives either
+contracts with the normal and forms the rows without (N, 2, 3) or (N, 2, P) temporaries.
+A block of targets ``t_i`` (px) with square-root weights ``s_i`` gives either
 
 - point rows (``normals_px is None``): ``r = s_i (u_i - t_i)``, 2 rows per target (u then v);
 - line rows (unit normals ``n_i`` fixed for the round): ``r = s_i n_i^T (u_i - t_i)``, the
