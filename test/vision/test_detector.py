@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import cv2
 import numpy as np
 import pytest
 
@@ -10,7 +11,8 @@ from hand_tracker_ros.errors import ConfigError, ImageFormatError
 from hand_tracker_ros.vision.detector.channels import (candidates, compute_channels,
                                                        feature_matrix, gate_image)
 from hand_tracker_ros.vision.detector.data import labelled_views
-from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
+from hand_tracker_ros.vision.detector.detector import (DetectorConfig, FingertipDetector,
+                                                       find_peaks, refine, smooth_votes)
 from hand_tracker_ros.vision.detector.evaluation import DetectionTally
 from hand_tracker_ros.vision.detector.forest import ForestArrays, pack_nodes, vote
 from hand_tracker_ros.vision.detector.model import DetectorModel
@@ -53,6 +55,25 @@ def test_verifier_beats_vote_height_on_held_out_views(detector, views):
         verified.add(detector.detect(view.image), view.tips_uv, view.tips_visible)
         unverified.add(plain.detect(view.image), view.tips_uv, view.tips_visible)
     assert verified.precision > unverified.precision + 0.1
+
+
+def test_peaks_of_the_vote_box_are_the_peaks_of_the_whole_image(detector, views):
+    model, cfg = detector.model, detector.config
+    for view in views[:8]:
+        accumulator = detector.votes(view.image)
+        smoothed = smooth_votes(accumulator, cfg.smoothing_sigma_px)
+        uv, _ = find_peaks(smoothed, model.peak_floor * model.vote_norm, cfg.nms_radius_px,
+                           model.max_peaks)
+        assert uv.shape[0] > 0
+        np.testing.assert_array_equal(detector.peaks(view.image)[0], refine(accumulator, uv))
+
+
+@pytest.mark.parametrize('sigma', [0.5, 1.3, 3.0, 4.7])
+def test_smoothing_kernel_is_the_opencv_default(sigma):
+    votes = np.random.default_rng(0).random((60, 80)).astype(np.float32)
+    np.testing.assert_array_equal(
+        smooth_votes(votes, sigma),
+        cv2.GaussianBlur(votes, (0, 0), sigma, borderType=cv2.BORDER_CONSTANT))
 
 
 def test_detections_are_well_formed(detector, views):

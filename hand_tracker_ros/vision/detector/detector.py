@@ -42,7 +42,7 @@ import cv2
 import numba
 import numpy as np
 
-from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, UInt8Array
+from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, IntArray, UInt8Array
 from hand_tracker_ros.config import param
 from hand_tracker_ros.tracking.observations import SalientDetections
 from hand_tracker_ros.vision.detector.channels import candidates, compute_channels, gate_image
@@ -73,9 +73,29 @@ class DetectorConfig:
                                    low=0.0, high=1.0)
 
 
+def smoothing_radius_px(sigma_px: float) -> int:
+    """Half-size of the Gaussian kernel of :func:`smooth_votes`: OpenCV's choice for float
+    images, a kernel of ``round(8 sigma + 1) | 1`` taps."""
+    return (int(round(8.0 * sigma_px + 1.0)) | 1) // 2
+
+
 def smooth_votes(accumulator: Float32Array, sigma_px: float) -> Float32Array:
-    """Gaussian-smoothed vote image (H, W) float32."""
-    return cv2.GaussianBlur(accumulator, (0, 0), sigma_px, borderType=cv2.BORDER_CONSTANT)
+    """Gaussian-smoothed vote image (H, W) float32 (zero outside the image)."""
+    size = 2 * smoothing_radius_px(sigma_px) + 1
+    return cv2.GaussianBlur(accumulator, (size, size), sigma_px,
+                            borderType=cv2.BORDER_CONSTANT)
+
+
+def vote_box(ys: IntArray, xs: IntArray, margin_px: int,
+             shape_hw: tuple[int, int]) -> tuple[slice, slice]:
+    """Rows and columns within ``margin_px`` of the candidates ``ys, xs`` (N,) int, clipped
+    to the image (without candidates, the vote-free 1 x 1 box at the origin)."""
+    if ys.size == 0:
+        return slice(0, 1), slice(0, 1)
+    return (slice(max(int(ys.min()) - margin_px, 0), min(int(ys.max()) + margin_px + 1,
+                                                         shape_hw[0])),
+            slice(max(int(xs.min()) - margin_px, 0), min(int(xs.max()) + margin_px + 1,
+                                                         shape_hw[1])))
 
 
 def find_peaks(smoothed: Float32Array, min_height: float, nms_radius_px: float,
@@ -142,6 +162,11 @@ class FingertipDetector:
         self.config = config
         self._packed = pack_nodes(model.forest, model.bank)
         self._weight, self._offset = model.forest.votes(model.radius_px)
+        # Votes land within `reach` px of their candidate and smoothing spreads them by the
+        # kernel radius: smoothing and peak search beyond that box would only see zeros.
+        voting = self._weight >= config.min_leaf_weight
+        reach = int(np.ceil(np.abs(self._offset[voting]).max(initial=0.0)))
+        self._margin_px = reach + smoothing_radius_px(config.smoothing_sigma_px)
         self._verifier_nodes = model.verifier.nodes()
         self._context_nodes = model.context.nodes()
 
@@ -156,8 +181,10 @@ class FingertipDetector:
         """Raw vote image (H, W) float32 of one (H, W, 3) uint8 RGB image."""
         return self._vote(image_rgb)[2]
 
-    def _vote(self, image_rgb: UInt8Array) -> tuple[UInt8Array, BoolArray, Float32Array]:
-        """Channels (C, H, W) uint8, gate mask (H, W) bool and raw votes (H, W) float32."""
+    def _vote(self, image_rgb: UInt8Array
+              ) -> tuple[UInt8Array, BoolArray, Float32Array, tuple[slice, slice]]:
+        """Channels (C, H, W) uint8, gate mask (H, W) bool, raw votes (H, W) float32 and the
+        box outside which the smoothed votes are zero (:func:`vote_box`)."""
         check_rgb('image_rgb', image_rgb)
         model = self.model
         channels = compute_channels(image_rgb, model.skin_lut)
@@ -166,7 +193,8 @@ class FingertipDetector:
         accumulator = np.zeros(image_rgb.shape[:2], dtype=np.float32)
         vote(channels, ys, xs, model.forest.roots, self._packed, self._weight, self._offset,
              self.config.min_leaf_weight, accumulator)
-        return channels, gate_mask, accumulator
+        box = vote_box(ys, xs, self._margin_px, accumulator.shape)
+        return channels, gate_mask, accumulator, box
 
     def peaks(self, image_rgb: UInt8Array) -> tuple[FloatArray, Float32Array]:
         """Refined vote peaks and their verifier features (steps 1-4 of the module docstring).
@@ -178,11 +206,14 @@ class FingertipDetector:
         features : (N, verifier.N_FEATURES) float32
         """
         model = self.model
-        channels, gate_mask, accumulator = self._vote(image_rgb)
-        smoothed = smooth_votes(accumulator, self.config.smoothing_sigma_px)
+        channels, gate_mask, accumulator, (rows, cols) = self._vote(image_rgb)
+        # Smoothing and peaks in the vote box only: the same values and peaks as on the
+        # whole image (outside it the smoothed votes are 0; a dilation that also saw those
+        # zeros would not change a maximum of non-negative votes).
+        smoothed = smooth_votes(accumulator[rows, cols], self.config.smoothing_sigma_px)
         uv, height = find_peaks(smoothed, model.peak_floor * model.vote_norm,
                                 self.config.nms_radius_px, model.max_peaks)
-        uv = refine(accumulator, uv)
+        uv = refine(accumulator, uv + np.array([cols.start, rows.start], dtype=np.float64))
         return uv, peak_features(uv, height, channels, gate_mask, model.vote_norm)
 
     def scores(self, uv_px: FloatArray, features: Float32Array) -> FloatArray:
