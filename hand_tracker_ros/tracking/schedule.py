@@ -5,13 +5,7 @@ Levenberg-Marquardt call of up to 10 iterations with correspondences and collisi
 re-found before it, and uses optical flow only in the first 25 % of the rounds (it guides the
 initial jump; edges and salient points refine). That is 300 LM iterations per frame, far over
 a real-time budget; with a warm start from the previous frame a few rounds of a few
-iterations keep most of the accuracy (the evaluation reports the trade-off). The default,
-1 coarse + 2 full rounds of 6 iterations, was chosen over 1 + 3 x 4 by ``hand-tracker evaluate``
-(full method, 150 frames of grasp, tapping and random, seed 0): mean 3D joint error 1.55 mm
-vs 1.75, worst frame 5.4 vs 5.0 mm, no interpenetration; 1 + 2 x 5 gave 1.57 / 5.8 mm,
-1 + 2 x 4 1.75 / 7.3 mm and 0 + 3 x 5 2.05 / 9.6 mm. A round (render, contours and every
-correspondence search in 4 cameras) costs about as much as 5 LM iterations, so one round
-fewer with two more iterations per round is about 15 ms per frame cheaper.
+iterations keep most of the accuracy (the evaluation reports the trade-off).
 
 Collision rounds: the collision pairs of a round are fixed at its start, so its last LM steps
 can push two fingers into each other unseen. After the schedule, up to ``collision_rounds``
@@ -35,8 +29,8 @@ class ScheduleConfig:
 
     coarse_rounds: int = param(1, 'rounds with the distal finger joints frozen (Ballan: 10)',
                                low=0, high=100)
-    full_rounds: int = param(2, 'rounds with every DOF free (Ballan: 20)', low=1, high=100)
-    iterations: int = param(6, 'LM iterations per round (Ballan: 10)', low=1, high=100)
+    full_rounds: int = param(3, 'rounds with every DOF free (Ballan: 20)', low=1, high=100)
+    iterations: int = param(4, 'LM iterations per round (Ballan: 10)', low=1, high=100)
     flow_fraction: float = param(0.25, 'fraction of the rounds that use optical flow',
                                  low=0.0, high=1.0)
     collision_rounds: int = param(1, 'extra full rounds while non-adjacent parts of the '
