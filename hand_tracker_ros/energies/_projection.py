@@ -150,6 +150,12 @@ def _block_rows(posed: Any, block: ImageTargets, jacobian: bool
     return r, (J if jacobian else None)
 
 
+def block_vertices(blocks: Sequence[ImageTargets]) -> IntArray:
+    """Vertex ids (K,) int64 the blocks' rows read (the ``Energy.jacobian_vertices`` of the
+    image terms)."""
+    return np.concatenate([np.zeros(0, np.int64)] + [b.vertex_ids for b in blocks])
+
+
 def image_residuals(posed: Any, blocks: Sequence[ImageTargets]) -> FloatArray:
     """Stacked residuals ``r (M,)`` (px) of all blocks, in block order."""
     rows = [_block_rows(posed, b, False)[0] for b in blocks]

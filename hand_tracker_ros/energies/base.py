@@ -8,6 +8,11 @@ as an immutable value, which is then held fixed for the Levenberg-Marquardt call
 so trial steps keep the residual count ``M`` constant. The problem stacks
 ``sqrt(weight) * r`` of every enabled term; the order of terms never matters.
 
+Each term also names the mesh vertices its Jacobian rows read (``jacobian_vertices``): the
+problem poses the hand with the vertex Jacobian of their union only (about a third of the
+mesh), so a term must read no other row of ``posed.vertices_jac`` (the tracking test checks
+the stacked Jacobian against the one from a fully posed hand).
+
 Cost convention: a term's cost is ``0.5 * weight * |r|^2``.
 """
 from __future__ import annotations
@@ -15,7 +20,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
-    from hand_tracker_ros._typing import FloatArray
+    from hand_tracker_ros._typing import FloatArray, IntArray
 
 
 class Energy(Protocol):
@@ -36,3 +41,7 @@ class Energy(Protocol):
 
     def linearize(self, posed: Any, correspondences: Any) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` and analytic Jacobian ``dr/dtheta (M, P)``."""
+
+    def jacobian_vertices(self, correspondences: Any) -> IntArray:
+        """Mesh vertices (K,) int64 whose rows of ``posed.vertices_jac`` ``linearize`` reads
+        (repeats allowed); the problem skins only the union of these with their Jacobian."""

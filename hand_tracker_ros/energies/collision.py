@@ -179,6 +179,10 @@ class CollisionEnergy:
             return np.zeros(0)
         return self._rho(posed.vertices_m, pairs.vertex_ids, pairs.face_ids)
 
+    def jacobian_vertices(self, pairs: CollisionPairs) -> IntArray:
+        """Vertex ids (K,) int64 the rows read: intruding vertices and receiving triangles."""
+        return np.concatenate([pairs.vertex_ids, self.faces[pairs.face_ids].ravel()])
+
     def linearize(self, posed: Any, pairs: CollisionPairs) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` and Jacobian ``dr/dtheta (M, P)`` using ``posed.vertices_jac``."""
         jac = posed.vertices_jac

@@ -48,8 +48,8 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import (ImageTargets, image_linearize,
-                                                   image_residuals)
+from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
+                                                   image_linearize, image_residuals)
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.tracking.observations import CameraObservation
 from hand_tracker_ros.tracking.views import ModelView
@@ -248,6 +248,10 @@ class EdgeEnergy:
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (px) and analytic Jacobian ``J (M, P)``."""
         return image_linearize(posed, correspondences.blocks)
+
+    def jacobian_vertices(self, correspondences: EdgeCorrespondences) -> IntArray:
+        """Vertex ids (K,) int64 the rows read."""
+        return block_vertices(correspondences.blocks)
 
     def _match(self, view: ModelView, obs: CameraObservation) -> ImageTargets:
         cfg = self.config

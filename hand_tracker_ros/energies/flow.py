@@ -38,7 +38,8 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import ImageTargets, image_linearize, image_residuals
+from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
+                                                   image_linearize, image_residuals)
 
 NAME = 'flow'
 
@@ -185,3 +186,7 @@ class FlowEnergy:
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (px) and analytic Jacobian ``J (M, P)`` (px per unit)."""
         return image_linearize(posed, correspondences.blocks)
+
+    def jacobian_vertices(self, correspondences: FlowCorrespondences) -> IntArray:
+        """Vertex ids (K,) int64 the rows read."""
+        return block_vertices(correspondences.blocks)

@@ -362,6 +362,10 @@ class JointLimitsEnergy:
         frames = posed.bone_transforms[c.frame_bone, :3, :3]
         return (np.einsum('nji,nj->ni', frames, bone) - c.target_local_m).reshape(-1)
 
+    def jacobian_vertices(self, correspondences: LimitTargets) -> IntArray:
+        """No mesh vertex: the rows read ``keypoints_jac`` only."""
+        return np.zeros(0, dtype=np.int64)
+
     def linearize(self, posed: Any, correspondences: LimitTargets
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per unit)."""

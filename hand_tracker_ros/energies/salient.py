@@ -44,7 +44,8 @@ from scipy.spatial.distance import cdist
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import ImageTargets, image_linearize, image_residuals
+from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
+                                                   image_linearize, image_residuals)
 
 NAME = 'salient'
 
@@ -190,3 +191,7 @@ class SalientEnergy:
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (px) and analytic Jacobian ``J (M, P)`` (px per unit)."""
         return image_linearize(posed, correspondences.blocks)
+
+    def jacobian_vertices(self, correspondences: SalientCorrespondences) -> IntArray:
+        """Vertex ids (K,) int64 the rows read."""
+        return block_vertices(correspondences.blocks)

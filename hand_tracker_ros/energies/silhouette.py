@@ -242,6 +242,10 @@ class SilhouetteEnergy:
         jac = np.einsum('ni,nip->np', c.normals, posed.vertices_jac[c.vertex_ids])
         return self.residuals(posed, c), jac.reshape(c.n_residuals, np.size(posed.theta))
 
+    def jacobian_vertices(self, correspondences: SilhouetteCorrespondences) -> IntArray:
+        """Vertex ids (K,) int64 the rows read."""
+        return correspondences.vertex_ids
+
     def _model_to_data(self, posed: Any, view: ModelView, obs: CameraObservation
                        ) -> SilhouetteCorrespondences:
         contours = view.contours

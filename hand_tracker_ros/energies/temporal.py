@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.config import param
 from hand_tracker_ros.model import kinematics
@@ -130,6 +130,10 @@ class TemporalEnergy:
         if target.shape[0] == 0:
             return np.zeros(0)
         return (posed.keypoints_m - target).reshape(-1)
+
+    def jacobian_vertices(self, correspondences: TemporalTarget) -> IntArray:
+        """No mesh vertex: the rows read ``keypoints_jac`` only."""
+        return np.zeros(0, dtype=np.int64)
 
     def linearize(self, posed: Any, correspondences: TemporalTarget
                   ) -> tuple[FloatArray, FloatArray]:

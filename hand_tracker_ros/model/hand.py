@@ -176,7 +176,8 @@ class HandModel:
             theta[PARAM_NAMES.index(name)] = value
         return theta
 
-    def pose(self, theta: FloatArray, *, jacobian: bool = True) -> PosedHand:
+    def pose(self, theta: FloatArray, *, jacobian: bool = True,
+             jacobian_vertices: IntArray | None = None) -> PosedHand:
         """Pose the hand.
 
         Parameters
@@ -185,6 +186,11 @@ class HandModel:
             Pose in PARAM_NAMES order (not clipped to the limits).
         jacobian : bool
             Also compute the (..., 3, P) Jacobians.
+        jacobian_vertices : (K,) int64, optional
+            Unique vertex ids: only these rows of ``vertices_jac`` are computed and the others
+            are left zero, for callers that read no other row (the tracker's LM evaluations
+            read only the vertices of their correspondences, about a third of the mesh).
+            Default: every vertex.
 
         Raises
         ------
@@ -201,7 +207,7 @@ class HandModel:
         if jacobian:
             verts, verts_jac = skin_with_jacobian(
                 skin_t, self.rest_vertices_m, self.influence_bones, self.influence_weights,
-                self.bone_dofs, fk.axes, fk.pivots)
+                self.bone_dofs, fk.axes, fk.pivots, jacobian_vertices)
             kp_jac = kinematics.points_jacobian(fk, kp_bones, keypoints)
         else:
             verts = skin(skin_t, self.rest_vertices_m, self.influence_bones,

@@ -41,13 +41,13 @@ def _skin(transforms, rest, bones, weights):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _skin_jacobian(transforms, rest, bones, weights, bone_dofs, axes, pivots,
-                   n_p):  # pragma: no cover - compiled
+def _skin_jacobian(transforms, rest, bones, weights, bone_dofs, axes, pivots, n_p,
+                   rows):  # pragma: no cover - compiled
     n_v, n_i = bones.shape
-    out = np.zeros((n_v, 3))
+    out = _skin(transforms, rest, bones, weights)
     jac = np.zeros((n_v, 3, n_p))
     y = np.zeros(3)
-    for v in range(n_v):
+    for v in rows:
         x0, x1, x2 = rest[v, 0], rest[v, 1], rest[v, 2]
         for r in range(3):
             jac[v, r, r] = 1.0
@@ -59,7 +59,6 @@ def _skin_jacobian(transforms, rest, bones, weights, bone_dofs, axes, pivots,
             a = transforms[b]
             for r in range(3):
                 y[r] = a[r, 0] * x0 + a[r, 1] * x1 + a[r, 2] * x2 + a[r, 3]
-                out[v, r] += w * y[r]
             for m in range(bone_dofs.shape[1]):
                 k = bone_dofs[b, m]
                 if k < 0:
@@ -112,14 +111,19 @@ def skin(skinning_transforms: FloatArray, rest_m: FloatArray, bones: IntArray,
 
 def skin_with_jacobian(skinning_transforms: FloatArray, rest_m: FloatArray, bones: IntArray,
                        weights: FloatArray, bone_dofs: IntArray, axes: FloatArray,
-                       pivots: FloatArray) -> tuple[FloatArray, FloatArray]:
+                       pivots: FloatArray, rows: IntArray | None = None
+                       ) -> tuple[FloatArray, FloatArray]:
     """Posed vertices (V, 3) and their Jacobian (V, 3, P) float64.
 
     ``bone_dofs`` (B, D) int64 lists the revolute DOF moving each bone (padded with -1);
     ``axes``/``pivots`` (P, 3) are the world hinge axes and pivots of the current pose.
+    ``rows`` (K,) int64, unique, restricts the Jacobian to those vertices (the other rows
+    stay zero); the default is every vertex.
     """
+    if rows is None:
+        rows = np.arange(rest_m.shape[0])
     return _skin_jacobian(skinning_transforms, rest_m, bones, weights, bone_dofs, axes,
-                          pivots, axes.shape[0])
+                          pivots, axes.shape[0], np.asarray(rows, dtype=np.int64))
 
 
 def vertex_normals(verts_m: FloatArray, faces: Int32Array) -> FloatArray:
