@@ -65,7 +65,10 @@ views of the bench's held-out seed):
 - context verifier (issue 4; all 300 bench views, default recipe, min_score 0.4): 0.845 /
   0.730 vs 0.819 / 0.700 without (0.809 / 0.765 at 0.3); with the neighbour, 40 px and
   rim-distance context features 0.842 / 0.744 (0.877 / 0.708 at 0.5, 0.905 / 0.662 at
-  0.6). Twice the verifier views (2400) changed it by less than 0.01. Diagnosis before it: the
+  0.6), and 0.851 / 0.739 (0.882 / 0.702, 0.907 / 0.655) for the same recipe after
+  last-bit changes of the forward kinematics elsewhere in the tree: tied forest splits
+  flip, so +-0.01 is run-to-run spread, not signal (the same tree gives the same bytes).
+  Twice the verifier views (2400) changed it by less than 0.01. Diagnosis before it: the
   forest's top-20 peaks hold a peak within 8 px of 92% of visible tips (75% within 4 px),
   so scoring, not candidates, loses most tips; nearest-peak scores fall with the peak's
   distance to its tip (>= 0.4 for 90% of peaks within 2 px, 52% at 4-6 px). Things that
