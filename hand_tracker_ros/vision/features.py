@@ -117,6 +117,26 @@ class CameraFeatures:
         u0, v0 = self.roi_px[:2]
         return np.column_stack([cols + u0, rows + v0]).astype(np.int64)
 
+    @cached_property
+    def nearest_foreground_index(self) -> IntArray:
+        """ROI raster index ``row * w + col`` (h, w) int64 of the foreground pixel closest to
+        each ROI pixel (a foreground pixel is its own), -1 everywhere when the mask is empty;
+        computed once per frame, although every correspondence round reads it.
+
+        Closest by ``cv2.distanceTransformWithLabels`` (``DIST_L2``, 5x5 mask) of the mask's
+        complement: a chamfer approximation of the Euclidean distance, so within a pixel of the
+        true nearest one at the silhouette term's search distances.
+        """
+        fg = np.flatnonzero(self.mask)
+        if fg.size == 0:
+            return np.full(self.mask.shape, -1, dtype=np.int64)
+        # distanceTransform measures the distance to the nearest zero pixel: foreground -> 0.
+        # With DIST_LABEL_PIXEL the zero pixels are labelled 1..K in raster order.
+        _, labels = cv2.distanceTransformWithLabels(
+            np.where(self.mask, 0, 255).astype(np.uint8), cv2.DIST_L2, 5,
+            labelType=cv2.DIST_LABEL_PIXEL)
+        return fg[labels - 1]
+
 
 class FeatureExtractor:
     """Features of one camera's frames, in order (not thread-safe: one per camera).

@@ -7,7 +7,7 @@ import pytest
 import scipy.spatial
 
 from hand_tracker_ros.energies.silhouette import (SilhouetteConfig, SilhouetteEnergy,
-                                                  nearest_foreground, nearest_point)
+                                                  nearest_point, outside_targets)
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.layout import PARAM_NAMES
@@ -33,19 +33,63 @@ def _with_mask(features: CameraFeatures, mask: np.ndarray,
                           None, features.gray, roi or features.roi_px, features.image_size_px)
 
 
-def test_nearest_foreground_exact_on_a_box_with_cap_and_roi() -> None:
+def test_outside_targets_exact_on_a_box_with_cap_and_roi() -> None:
     mask = np.zeros((40, 60), bool)
     mask[10:20, 30:40] = True                      # ROI pixels; full image = ROI + (100, 50)
     features = CameraFeatures('c', 0, None, mask, None, np.zeros((40, 60), np.uint8),
                               (100, 50, 160, 90), (320, 240))
-    uv = np.array([[125.2, 65.0], [135.0, 55.4], [145.0, 75.0], [90.0, 65.0], [132, 62]])
-    pixel, found = nearest_foreground(features, uv, 12.0)
-    np.testing.assert_array_equal(found, [True, True, True, False, True])
-    np.testing.assert_array_equal(pixel[:3], [[130, 65], [135, 60], [139, 69]])
-    np.testing.assert_array_equal(pixel[4], [132, 62])   # inside: itself
+    uv = np.array([[125.2, 65.0], [135.0, 55.4], [145.0, 75.0], [90.0, 65.0], [132, 62],
+                   [129.6, 65.0]])
+    matched, target = outside_targets(features, uv, 12.0, 1.0)
+    # Beyond the cap, inside the mask and within the tolerance: no match.
+    np.testing.assert_array_equal(matched, [True, True, True, False, False, False])
+    np.testing.assert_allclose(target[:3], [[129.5, 65], [135, 59.5],
+                                            [139 + 0.5 / np.sqrt(2), 69 + 0.5 / np.sqrt(2)]])
     empty = _with_mask(features, np.zeros_like(mask))
-    assert not nearest_foreground(empty, uv, 12.0)[1].any()
-    assert nearest_foreground(features, np.zeros((0, 2)), 12.0)[0].shape == (0, 2)
+    assert not outside_targets(empty, uv, 12.0, 1.0)[0].any()
+    assert outside_targets(features, np.zeros((0, 2)), 12.0, 1.0)[1].shape == (0, 2)
+
+
+def _outside_targets_numpy(features: CameraFeatures, uv: np.ndarray, cap: float, tol: float
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """Reference: mask test, distance transform of the queries' window, target, in numpy."""
+    outside = ~features.mask_at(uv)
+    matched, target = np.zeros(len(uv), bool), np.zeros((len(uv), 2))
+    u0, v0, u1, v1 = features.roi_px
+    reach = int(np.ceil(cap)) + 1
+    lo = np.floor(uv[outside].min(axis=0)).astype(int) - reach
+    hi = np.ceil(uv[outside].max(axis=0)).astype(int) + reach + 1
+    wu0, wv0, wu1, wv1 = max(lo[0], u0), max(lo[1], v0), min(hi[0], u1), min(hi[1], v1)
+    window = features.mask[wv0 - v0:wv1 - v0, wu0 - u0:wu1 - u0]
+    _, labels = cv2.distanceTransformWithLabels(np.where(window, 0, 255).astype(np.uint8),
+                                                cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL)
+    col = np.clip(np.rint(uv[:, 0]).astype(int) - wu0, 0, wu1 - wu0 - 1)
+    row = np.clip(np.rint(uv[:, 1]).astype(int) - wv0, 0, wv1 - wv0 - 1)
+    flat = np.flatnonzero(window)[labels[row, col] - 1]
+    pixel = np.column_stack([flat % (wu1 - wu0) + wu0, flat // (wu1 - wu0) + wv0]).astype(float)
+    offset = uv - pixel
+    gap = np.linalg.norm(offset, axis=1)
+    matched = outside & (np.hypot(*(pixel - uv).T) <= cap) & (gap > tol)
+    target[matched] = pixel[matched] + 0.5 * offset[matched] / gap[matched, None]
+    return matched, target
+
+
+def test_outside_targets_match_the_numpy_form_on_random_blobs() -> None:
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        mask = np.zeros((90, 120), np.uint8)
+        for _ in range(3):
+            cv2.ellipse(mask, tuple(int(c) for c in rng.integers(20, 90, 2)),
+                        tuple(int(a) for a in rng.integers(4, 25, 2)), float(rng.uniform(0, 180)),
+                        0, 360, 1, -1)
+        roi = (trial, 2 * trial, trial + 120, 2 * trial + 90)
+        features = CameraFeatures('c', 0, None, mask.astype(bool), None, mask, roi, (320, 240))
+        uv = rng.uniform(-15, 140, (500, 2)) + roi[:2]
+        matched, target = outside_targets(features, uv, 20.0, 1.0)
+        ref_matched, ref_target = _outside_targets_numpy(features, uv, 20.0, 1.0)
+        assert ref_matched.sum() > 50
+        np.testing.assert_array_equal(matched, ref_matched)
+        np.testing.assert_array_equal(target, ref_target)
 
 
 # --- rendered data ------------------------------------------------------------------------
