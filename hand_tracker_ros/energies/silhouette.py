@@ -11,12 +11,12 @@ most ``max_points_per_camera`` by an even stride. Those whose projection ``u`` l
 the observed foreground mask (``CameraFeatures.mask_at``) are matched, in 2D, to the closest
 foreground pixel ``q`` (for a point outside the mask the closest foreground pixel is a
 silhouette pixel) by ``cv2.distanceTransformWithLabels`` of the mask's complement, computed
-once per frame (``CameraFeatures.nearest_foreground_index``). Matches farther than
+once per frame (``CameraFeatures.nearest_foreground``). Matches farther than
 ``max_distance_px`` are dropped, and so are points within ``tolerance_px`` of the pixel
 centre: a silhouette vertex rounds to a background pixel half the time although it lies on
-the boundary, and matching it would shrink the model by the mask quantisation. The silhouette boundary itself passes half a
-pixel from the pixel centre towards ``u``, so the target is
-``t = q + 0.5 (u - q) / |u - q|``, which defines the ray ``p + s d`` (``p`` the camera
+the boundary, and matching it would shrink the model by the mask quantisation. The
+silhouette boundary itself passes half a pixel from the pixel centre towards ``u``, so the
+target is ``t = q + 0.5 (u - q) / |u - q|``, which defines the ray ``p + s d`` (``p`` the camera
 centre, ``d`` the unit direction of ``t`` from :meth:`PinholeCamera.rays`). With
 ``w = (m - p) - ((m - p)^T d) d`` at correspondence time, ``n = w / |w|`` is the unit
 vector orthogonal to the ray pointing from the ray to ``m``, held fixed for the round.
@@ -130,8 +130,8 @@ def outside_targets(features: CameraFeatures, uv_px: FloatArray, max_distance_px
     """Model-to-data targets: the silhouette boundary nearest to each point outside the mask.
 
     A query is matched when its nearest pixel is background (``CameraFeatures.mask_at``), the
-    closest foreground pixel ``q`` (``CameraFeatures.nearest_foreground_index``; queries
-    outside the ROI search from the nearest ROI pixel) lies within ``max_distance_px`` and
+    closest foreground pixel ``q`` (``CameraFeatures.nearest_foreground``; queries outside
+    its window search from the nearest window pixel) lies within ``max_distance_px`` and
     farther than ``tolerance_px``. Its target is ``t = q + 0.5 (u - q) / |u - q|``.
 
     Parameters
@@ -148,9 +148,10 @@ def outside_targets(features: CameraFeatures, uv_px: FloatArray, max_distance_px
     target_px : (N, 2) float64
         ``t`` where matched, 0 elsewhere.
     """
-    u0, v0 = features.roi_px[:2]
-    return _outside_targets(np.ascontiguousarray(uv_px, dtype=np.float64),
-                            features.nearest_foreground_index, u0, v0,
+    reach = int(np.ceil(max_distance_px)) + 1
+    nearest = features.nearest_foreground(reach)
+    return _outside_targets(np.ascontiguousarray(uv_px, dtype=np.float64), nearest.index,
+                            nearest.window_px[0], nearest.window_px[1],
                             float(max_distance_px), float(tolerance_px))
 
 
@@ -162,13 +163,11 @@ def _outside_targets(uv, nearest, u0, v0, max_distance, tolerance):  # pragma: n
     height, width = nearest.shape
     matched = np.zeros(uv.shape[0], dtype=np.bool_)
     target = np.zeros((uv.shape[0], 2))
-    for i in range(uv.shape[0]):
+    for i in range(uv.shape[0] if nearest.size else 0):   # nothing to match in an empty mask
         col, row = int(np.rint(uv[i, 0])) - u0, int(np.rint(uv[i, 1])) - v0
         if 0 <= col < width and 0 <= row < height and nearest[row, col] == row * width + col:
-            continue                                        # inside the mask
+            continue                    # inside the mask (none lies outside the window)
         flat = nearest[min(max(row, 0), height - 1), min(max(col, 0), width - 1)]
-        if flat < 0:
-            continue                                        # empty mask
         pu, pv = float(flat % width + u0), float(flat // width + v0)
         du, dv = uv[i, 0] - pu, uv[i, 1] - pv
         if math.hypot(pu - uv[i, 0], pv - uv[i, 1]) > max_distance:

@@ -110,32 +110,82 @@ class CameraFeatures:
         """Full-image ``(u, v)`` (K, 2) int64 of the foreground pixels with a background
         4-neighbour (the ROI border does not count as background); computed once per frame,
         although every correspondence round reads it."""
-        mask = self.mask.astype(np.uint8)
+        # Only the foreground's bounding box grown by one pixel (background around it).
+        wu0, wv0, wu1, wv1 = _foreground_box(self.mask, self.roi_px, 1)
+        if wu1 == wu0:
+            return np.zeros((0, 2), dtype=np.int64)
+        u0, v0 = self.roi_px[:2]
+        mask = self.mask[wv0 - v0:wv1 - v0, wu0 - u0:wu1 - u0].astype(np.uint8)
         # cv2.erode pads with the maximum by default, so the ROI border keeps its pixels.
         inner = cv2.erode(mask, cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3)))
         rows, cols = np.nonzero(mask > inner)
-        u0, v0 = self.roi_px[:2]
-        return np.column_stack([cols + u0, rows + v0]).astype(np.int64)
+        return np.column_stack([cols + wu0, rows + wv0]).astype(np.int64)
 
-    @cached_property
-    def nearest_foreground_index(self) -> IntArray:
-        """ROI raster index ``row * w + col`` (h, w) int64 of the foreground pixel closest to
-        each ROI pixel (a foreground pixel is its own), -1 everywhere when the mask is empty;
-        computed once per frame, although every correspondence round reads it.
+    def nearest_foreground(self, reach_px: int) -> NearestForeground:
+        """Closest foreground pixel of every pixel within about ``reach_px`` of the
+        foreground; computed once per frame and reach, although every correspondence round
+        reads it.
 
         Closest by ``cv2.distanceTransformWithLabels`` (``DIST_L2``, 5x5 mask) of the mask's
-        complement: a chamfer approximation of the Euclidean distance, so within a pixel of the
-        true nearest one at the silhouette term's search distances.
+        complement, a chamfer approximation of the Euclidean distance, on the foreground's
+        bounding box grown by ``reach_px`` (clipped to the ROI). A pixel less than
+        ``reach_px - 1`` from the foreground gets the label a transform of the whole ROI gives
+        it: every chamfer path that leaves the window is longer than that.
+
+        Parameters
+        ----------
+        reach_px : int
+            Margin (px) of the window around the foreground, >= 0.
         """
-        fg = np.flatnonzero(self.mask)
-        if fg.size == 0:
-            return np.full(self.mask.shape, -1, dtype=np.int64)
-        # distanceTransform measures the distance to the nearest zero pixel: foreground -> 0.
-        # With DIST_LABEL_PIXEL the zero pixels are labelled 1..K in raster order.
-        _, labels = cv2.distanceTransformWithLabels(
-            np.where(self.mask, 0, 255).astype(np.uint8), cv2.DIST_L2, 5,
-            labelType=cv2.DIST_LABEL_PIXEL)
-        return fg[labels - 1]
+        cache = self.__dict__.setdefault('_nearest_foreground', {})
+        if reach_px not in cache:
+            cache[reach_px] = _nearest_foreground(self.mask, self.roi_px, reach_px)
+        return cache[reach_px]
+
+
+@dataclass(frozen=True, eq=False)
+class NearestForeground:
+    """The closest foreground pixel of every pixel of a window (see
+    :meth:`CameraFeatures.nearest_foreground`).
+
+    Attributes
+    ----------
+    window_px : (u0, v0, u1, v1)
+        Half-open full-image box, empty (``u1 == u0``) when the mask is.
+    index : (h, w) int64
+        Window raster index ``row * w + col`` of the foreground pixel closest to each window
+        pixel (a foreground pixel is its own); no foreground lies outside the window.
+    """
+
+    window_px: tuple[int, int, int, int]
+    index: IntArray
+
+
+def _foreground_box(mask: BoolArray, roi_px: tuple[int, int, int, int], margin_px: int
+                    ) -> tuple[int, int, int, int]:
+    """Full-image half-open bounding box of ``mask`` (h, w) bool grown by ``margin_px``,
+    clipped to ``roi_px``; ``(u0, v0, u0, v0)`` when the mask is empty."""
+    u0, v0, u1, v1 = roi_px
+    x, y, w, h = cv2.boundingRect(mask.view(np.uint8))
+    if w == 0:
+        return u0, v0, u0, v0
+    return (max(u0 + x - margin_px, u0), max(v0 + y - margin_px, v0),
+            min(u0 + x + w + margin_px, u1), min(v0 + y + h + margin_px, v1))
+
+
+def _nearest_foreground(mask: BoolArray, roi_px: tuple[int, int, int, int], reach_px: int
+                        ) -> NearestForeground:
+    box = _foreground_box(mask, roi_px, reach_px)
+    wu0, wv0, wu1, wv1 = box
+    u0, v0 = roi_px[:2]
+    window = mask[wv0 - v0:wv1 - v0, wu0 - u0:wu1 - u0]
+    if window.size == 0:
+        return NearestForeground(box, np.zeros((0, 0), dtype=np.int64))
+    # distanceTransform measures the distance to the nearest zero pixel: foreground -> 0.
+    # With DIST_LABEL_PIXEL the zero pixels are labelled 1..K in raster order.
+    _, labels = cv2.distanceTransformWithLabels(
+        np.logical_not(window).view(np.uint8), cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL)
+    return NearestForeground(box, np.flatnonzero(window)[labels - 1])
 
 
 class FeatureExtractor:

@@ -75,16 +75,18 @@ def _outside_targets_numpy(features: CameraFeatures, uv: np.ndarray, cap: float,
 
 
 def test_outside_targets_match_the_numpy_form_on_random_blobs() -> None:
+    """Labels from the per-frame window around the foreground equal those of the queries'
+    window (the former per-round form) wherever a match is found."""
     rng = np.random.default_rng(3)
     for trial in range(20):
-        mask = np.zeros((90, 120), np.uint8)
+        mask = np.zeros((150, 200), np.uint8)
         for _ in range(3):
-            cv2.ellipse(mask, tuple(int(c) for c in rng.integers(20, 90, 2)),
+            cv2.ellipse(mask, tuple(int(c) for c in rng.integers(40, 120, 2)),
                         tuple(int(a) for a in rng.integers(4, 25, 2)), float(rng.uniform(0, 180)),
                         0, 360, 1, -1)
-        roi = (trial, 2 * trial, trial + 120, 2 * trial + 90)
+        roi = (trial, 2 * trial, trial + 200, 2 * trial + 150)
         features = CameraFeatures('c', 0, None, mask.astype(bool), None, mask, roi, (320, 240))
-        uv = rng.uniform(-15, 140, (500, 2)) + roi[:2]
+        uv = rng.uniform(-15, 215, (1000, 2)) + roi[:2]
         matched, target = outside_targets(features, uv, 20.0, 1.0)
         ref_matched, ref_target = _outside_targets_numpy(features, uv, 20.0, 1.0)
         assert ref_matched.sum() > 50

@@ -6,7 +6,7 @@ import pytest
 
 from hand_tracker_ros.config import flatten, from_mapping
 from hand_tracker_ros.errors import ConfigError, ImageFormatError, ShapeError
-from hand_tracker_ros.vision.features import (FeatureExtractor, FeaturesConfig,
+from hand_tracker_ros.vision.features import (CameraFeatures, FeatureExtractor, FeaturesConfig,
                                               MultiCameraFeatures)
 from hand_tracker_ros.vision.edges import nearest_edges
 from hand_tracker_ros.vision.flow import DenseFlow, FlowConfig, SparseFlow
@@ -124,3 +124,20 @@ def test_roi_outside_the_image_is_rejected(scene):
                        match=r'cam0: roi_px \(200, 0, 300, 50\) does not overlap the 160x120'):
         FeatureExtractor('cam0', FeaturesConfig()).process(scene()[0], 0,
                                                            roi_px=(200, 0, 300, 50))
+
+
+def test_silhouette_pixels_from_the_foreground_box_equal_the_whole_roi_form():
+    rng = np.random.default_rng(4)
+    for trial in range(10):
+        mask = np.zeros((60, 80), np.uint8)
+        for _ in range(2):   # blobs that may cross the ROI border, which is not background
+            cv2.circle(mask, tuple(int(c) for c in rng.integers(-5, 85, 2)),
+                       int(rng.integers(3, 20)), 1, -1)
+        roi = (10 + trial, 5, 90 + trial, 65)
+        features = CameraFeatures('c', 0, None, mask.astype(bool), None, mask, roi, (160, 120))
+        inner = cv2.erode(mask, cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3)))
+        rows, cols = np.nonzero(mask > inner)
+        np.testing.assert_array_equal(features.silhouette_px,
+                                      np.column_stack([cols + roi[0], rows + roi[1]]))
+    empty = CameraFeatures('c', 0, None, np.zeros((60, 80), bool), None, mask, roi, (160, 120))
+    assert empty.silhouette_px.shape == (0, 2)
