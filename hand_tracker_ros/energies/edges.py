@@ -266,10 +266,11 @@ class EdgeEnergy:
         keep = found.copy()
         keep[found] = reject_outliers(distance[found], part[found], floor,
                                       cfg.outlier_factor, cfg.outlier_min_matches)
+        target, normals = target[keep], normals[keep]
         sqrt_w = np.where(part[keep] == 0, cfg.palm_sqrt_weight, 1.0)
-        probe = cfg.edge_type_probe_px * normals[keep]
+        probe = cfg.edge_type_probe_px * normals
         mask_at = obs.features.mask_at
-        image_outer = mask_at(target[keep] + probe) != mask_at(target[keep] - probe)
+        image_outer = mask_at(target + probe) != mask_at(target - probe)
         mismatch = image_outer != contours.is_outer[keep]
         sqrt_w = sqrt_w * np.where(mismatch, math.sqrt(cfg.mismatch_weight), 1.0)
-        return ImageTargets(view.camera, ids[keep], target[keep], sqrt_w, normals[keep])
+        return ImageTargets(view.camera, ids[keep], target, sqrt_w, normals)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import cv2
+import numba
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray, UInt8Array
@@ -97,13 +98,8 @@ class CameraFeatures:
         """
         check_shape('uv_px', uv_px, (None, 2))
         check_finite('uv_px', uv_px)
-        u0, v0, u1, v1 = self.roi_px
-        col = np.rint(uv_px[:, 0]).astype(np.int64) - u0
-        row = np.rint(uv_px[:, 1]).astype(np.int64) - v0
-        inside = (col >= 0) & (col < u1 - u0) & (row >= 0) & (row < v1 - v0)
-        out = np.zeros(uv_px.shape[0], dtype=bool)
-        out[inside] = self.mask[row[inside], col[inside]]
-        return out
+        return _mask_at(self.mask, self.roi_px[0], self.roi_px[1],
+                        np.ascontiguousarray(uv_px, dtype=np.float64))
 
     @cached_property
     def silhouette_px(self) -> IntArray:
@@ -141,6 +137,20 @@ class CameraFeatures:
         if reach_px not in cache:
             cache[reach_px] = _nearest_foreground(self.mask, self.roi_px, reach_px)
         return cache[reach_px]
+
+
+# Hand-written instead of numpy: the edge and silhouette terms probe a few hundred points
+# per camera and round, where the numpy form's rounding, bounds mask and gather temporaries
+# cost ~20 us a call against ~2 us here; the test compares it with the numpy form.
+@numba.njit(cache=True, nogil=True)
+def _mask_at(mask, u0, v0, uv):  # pragma: no cover - compiled
+    height, width = mask.shape
+    out = np.zeros(uv.shape[0], dtype=np.bool_)
+    for i in range(uv.shape[0]):
+        col, row = int(np.rint(uv[i, 0])) - u0, int(np.rint(uv[i, 1])) - v0
+        if 0 <= col < width and 0 <= row < height:
+            out[i] = mask[row, col]
+    return out
 
 
 @dataclass(frozen=True, eq=False)

@@ -141,3 +141,18 @@ def test_silhouette_pixels_from_the_foreground_box_equal_the_whole_roi_form():
                                       np.column_stack([cols + roi[0], rows + roi[1]]))
     empty = CameraFeatures('c', 0, None, np.zeros((60, 80), bool), None, mask, roi, (160, 120))
     assert empty.silhouette_px.shape == (0, 2)
+
+
+def test_mask_at_matches_the_numpy_form():
+    rng = np.random.default_rng(6)
+    mask = rng.random((60, 80)) < 0.5
+    roi = (30, 20, 110, 80)
+    features = CameraFeatures('c', 0, None, mask, None, None, roi, (160, 120))
+    uv = np.vstack([rng.uniform(20, 120, (2000, 2)),
+                    np.array([[29.5, 20.0], [30.5, 20.0], [109.5, 79.5], [110.5, 40.0]])])
+    col = np.rint(uv[:, 0]).astype(np.int64) - roi[0]
+    row = np.rint(uv[:, 1]).astype(np.int64) - roi[1]
+    inside = (col >= 0) & (col < 80) & (row >= 0) & (row < 60)
+    ref = np.zeros(len(uv), bool)
+    ref[inside] = mask[row[inside], col[inside]]
+    np.testing.assert_array_equal(features.mask_at(uv), ref)
