@@ -143,6 +143,9 @@ def _visible(uv: FloatArray, z: FloatArray, zbuf: Float32Array, near: float,
             for px in range(max(cu - 1, 0), min(cu + 2, width)):
                 if zbuf[py, px] >= z[i] - tol:
                     out[i] = True
+                    break
+            if out[i]:
+                break
     return out
 
 
