@@ -4,7 +4,7 @@ import argparse
 
 import numpy as np
 import pytest
-from sklearn.ensemble import RandomForestRegressor
+from sklearn.ensemble import HistGradientBoostingClassifier, RandomForestRegressor
 
 from hand_tracker_ros.cli import train_detector
 from hand_tracker_ros.errors import ConfigError
@@ -13,11 +13,13 @@ from hand_tracker_ros.vision.detector.channels import (compute_channels, feature
 from hand_tracker_ros.vision.detector.data import labelled_views
 from hand_tracker_ros.vision.detector.forest import predict
 from hand_tracker_ros.vision.detector.model import DetectorModel
-from hand_tracker_ros.vision.detector.training import TrainingConfig, export_forest, train
+from hand_tracker_ros.vision.detector.training import (TrainingConfig, export_boosted,
+                                                         export_forest, train)
 
 TINY = TrainingConfig(n_views=6, n_trees=3, max_leaves=60, n_features=64,
                       positives_per_tip=10, negatives_per_view=60, calibration_views=2,
-                      n_jobs=1, verifier_views=6, verifier_trees=2, verifier_max_leaves=20)
+                      n_jobs=1, verifier_views=6, verifier_trees=2, verifier_max_leaves=20,
+                      context_iterations=5, context_max_leaves=8)
 
 
 def _nodes(forest):
@@ -45,6 +47,20 @@ def test_numba_forest_equals_sklearn_predict(hand_model):
     np.testing.assert_allclose(ours, forest.predict(x.astype(np.float32)), rtol=0, atol=1e-12)
 
 
+def test_numba_boosted_trees_equal_sklearn_decision_function():
+    rng = np.random.default_rng(4)
+    x = rng.normal(size=(600, 6)).astype(np.float32)
+    y = (x[:, 0] + 0.5 * x[:, 1] ** 2 + 0.3 * rng.normal(size=600) > 0.4).astype(int)
+    boosted = HistGradientBoostingClassifier(max_iter=15, max_leaf_nodes=7,
+                                             early_stopping=False, random_state=0).fit(x, y)
+    exported = export_boosted(boosted)
+    assert exported.roots.size == 15 and exported.value.shape[1] == 1
+    logit = predict(_nodes(exported), x)[:, 0]
+    np.testing.assert_allclose(logit, boosted.decision_function(x), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(1.0 / (1.0 + np.exp(-logit)), boosted.predict_proba(x)[:, 1],
+                               rtol=0, atol=1e-9)
+
+
 @pytest.mark.slow
 def test_training_is_deterministic(hand_model, tmp_path):
     paths = []
@@ -59,7 +75,7 @@ def test_training_is_deterministic(hand_model, tmp_path):
     assert 0 < model.gate < 255 and model.vote_norm > 0.0
     assert model.verifier.roots.size == TINY.verifier_trees
     assert model.verifier.value.shape[1] == 1
-    assert model.context.roots.size == TINY.verifier_trees
+    assert 1 <= model.context.roots.size <= TINY.context_iterations
     assert model.context.value.shape[1] == 1
 
 

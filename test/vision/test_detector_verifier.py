@@ -4,6 +4,7 @@ import cv2
 import numpy as np
 
 from hand_tracker_ros.vision.detector.channels import SKIN_CHANNEL
+from hand_tracker_ros.vision.detector.shape import N_SHAPE, shape_features
 from hand_tracker_ros.vision.detector.verifier import N_ANGLES, N_CONTEXT, N_FEATURES, \
     RING_RADII_PX, context_features, peak_features
 
@@ -58,6 +59,21 @@ def test_ring_features_do_not_depend_on_finger_direction():
     assert N_ANGLES % 4 == 0
     for ring in rings[1:]:
         np.testing.assert_allclose(ring, rings[0], atol=0.02)
+
+
+def test_shape_features_measure_the_finger_width():
+    channels, mask, d = _finger(30.0)
+    tip = np.array([100.0, 100.0])
+    uv = np.stack([tip, tip - 40.0 * d, tip + 30.0 * d])       # tip, mid-finger, background
+    shape = shape_features(uv, channels, mask)
+    assert shape.shape == (3, N_SHAPE) and shape.dtype == np.float32
+    np.testing.assert_array_equal(shape, peak_features(uv, np.ones(3), channels, mask,
+                                                       1.0)[:, N_FEATURES - N_SHAPE:])
+    d_in, d_out, widest = shape[:, 0], shape[:, 1], shape[:, 2:5]
+    assert d_in[1] >= 4.0 and d_out[1] == 0.0                   # inside a 10 px finger
+    assert d_in[2] == 0.0 and d_out[2] >= 20.0                   # far outside it
+    # the finger is ~10 px wide: its half-width bounds d_in anywhere near it.
+    assert np.all(widest[:2] <= 7.0) and np.all(widest[:2] >= 4.0)
 
 
 def test_no_peaks_give_an_empty_matrix():

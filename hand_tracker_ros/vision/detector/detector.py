@@ -26,9 +26,10 @@ Per image:
    training views; each peak is refined to sub-pixel precision by the vote centroid in a
    5 x 5 window of :math:`A`;
 4. the verifier forest maps each peak's features (:mod:`.verifier`: vote height, rank,
-   ring profiles of skin, gate mask and luma) to a tip probability :math:`s_1`; the context
-   verifier maps the same features plus the context of all :math:`s_1` of the image
-   (:func:`.verifier.context_features`) to the tip probability :math:`s`; peaks with
+   ring profiles of skin, gate mask and luma, :mod:`.shape` terms) to a tip probability
+   :math:`s_1`; the context verifier (boosted trees) maps the same features plus the
+   context of all :math:`s_1` of the image (:func:`.verifier.context_features`) to a logit
+   :math:`z` and the tip probability :math:`s = 1 / (1 + e^{-z})`; peaks with
    :math:`s \ge` ``min_score`` are the detections, at most ``max_detections``, highest
    :math:`s` first.
 """
@@ -220,7 +221,7 @@ class FingertipDetector:
         """Tip probability (N,) float64 of the peaks ``uv_px`` (N, 2) of one image (step 4)."""
         first = predict(self._verifier_nodes, features)[:, 0]
         both = np.concatenate([features, context_features(uv_px, first)], axis=1)
-        return predict(self._context_nodes, both)[:, 0]
+        return 1.0 / (1.0 + np.exp(-predict(self._context_nodes, both)[:, 0]))
 
     def detect(self, image_rgb: UInt8Array) -> SalientDetections:
         """Fingertip candidates of one image.

@@ -49,7 +49,8 @@ class DetectorModel:
         Peak verifier (value K = 1) over :func:`.verifier.peak_features`.
     context : ForestArrays
         Auto-context verifier (value K = 1) over the peak features followed by
-        :func:`.verifier.context_features` of the first verifier's scores.
+        :func:`.verifier.context_features` of the first verifier's scores: boosted trees
+        whose mean leaf value (:func:`.forest.predict`) is the logit of the tip probability.
     skin_lut : (SKIN_BINS, SKIN_BINS) uint8
         Skin likelihood per chroma bin.
     stride : int

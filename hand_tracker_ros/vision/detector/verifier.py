@@ -15,7 +15,9 @@ views it was not trained on, re-scores each peak from:
   circular harmonics :math:`|\hat s_k| = |\frac1A \sum_j s_j e^{-2\pi i jk/A}|`,
   :math:`k = 1, 2, 3`, and of :math:`\hat m_k`, :math:`k = 1, 2`, the number of
   0/1 transitions of :math:`m` around the ring, the standard deviation of :math:`Y` and
-  :math:`|\hat Y_1|`.
+  :math:`|\hat Y_1|`;
+- shape and edge terms (:mod:`.shape`): distances to the gate mask's border, the skin
+  region's half-width near the peak, ring profiles of the luma and skin gradients.
 
 Why rings: at a fingertip the ring crosses the finger once (skin on one arc: a strong
 first harmonic, two transitions), along a finger or at a knuckle between fingers it
@@ -48,10 +50,12 @@ import numpy as np
 
 from hand_tracker_ros._typing import Float32Array, FloatArray, UInt8Array
 from hand_tracker_ros.vision.detector.channels import SKIN_CHANNEL
+from hand_tracker_ros.vision.detector.shape import N_SHAPE, shape_features
 
 RING_RADII_PX = (4, 6, 9, 13)
 N_ANGLES = 16
-N_FEATURES = 3 + 10 * len(RING_RADII_PX)
+N_RING_FEATURES = 3 + 10 * len(RING_RADII_PX)
+N_FEATURES = N_RING_FEATURES + N_SHAPE
 CONTEXT_RADII_PX = (10.0, 20.0)
 SUM_RADIUS_PX = 40.0
 N_NEIGHBOURS = 3
@@ -87,6 +91,8 @@ def peak_features(uv_px: FloatArray, height: FloatArray, channels: UInt8Array,
     Returns
     -------
     features : (N, N_FEATURES) float32
+        Peak terms, ring profiles (``N_RING_FEATURES`` with the peak terms), then
+        :func:`.shape.shape_features`.
     """
     n = uv_px.shape[0]
     h_max = max(float(height.max(initial=0.0)), 1e-9)
@@ -105,7 +111,9 @@ def peak_features(uv_px: FloatArray, height: FloatArray, channels: UInt8Array,
                             mask_h, transitions[..., None], luma.std(axis=2)[..., None],
                             np.abs(luma @ _DFT[0])[..., None]], axis=2)  # (N, R, 10)
     peak = np.column_stack([height / vote_norm, height / h_max, np.arange(n)])
-    return np.concatenate([peak, rings.reshape(n, N_FEATURES - 3)], axis=1).astype(np.float32)
+    return np.concatenate([peak, rings.reshape(n, N_RING_FEATURES - 3),
+                           shape_features(uv_px, channels, gate_mask)],
+                          axis=1).astype(np.float32)
 
 
 @numba.njit(cache=True, nogil=True)
