@@ -246,12 +246,7 @@ def export_forest(estimators: list) -> ForestArrays:
         threshold.append(tree.threshold)
         value.append(tree.value[:, :, 0])
         offset += tree.node_count
-    return ForestArrays(roots=np.asarray(roots, dtype=np.int32),
-                        left=np.concatenate(left).astype(np.int32),
-                        right=np.concatenate(right).astype(np.int32),
-                        feature=np.concatenate(feature).astype(np.int32),
-                        threshold=np.concatenate(threshold).astype(np.float64),
-                        value=np.concatenate(value).astype(np.float64))
+    return _concatenated(roots, left, right, feature, threshold, value)
 
 
 def _regression_forest(features: np.ndarray, targets: FloatArray, n_trees: int,
@@ -347,12 +342,20 @@ def export_boosted(boosted) -> ForestArrays:
         value.append(leaf + len(trees) * float(boosted._baseline_prediction.ravel()[0])
                      if t == 0 else leaf)
         offset += nodes.size
+    return _concatenated(roots, left, right, feature, threshold,
+                         [v[:, None] for v in value])
+
+
+def _concatenated(roots: list[int], left: list[np.ndarray], right: list[np.ndarray],
+                  feature: list[np.ndarray], threshold: list[np.ndarray],
+                  value: list[np.ndarray]) -> ForestArrays:
+    """Per-tree node arrays (already offset to global node ids) as one :class:`ForestArrays`."""
     return ForestArrays(roots=np.asarray(roots, dtype=np.int32),
                         left=np.concatenate(left).astype(np.int32),
                         right=np.concatenate(right).astype(np.int32),
                         feature=np.concatenate(feature).astype(np.int32),
                         threshold=np.concatenate(threshold).astype(np.float64),
-                        value=np.concatenate(value).astype(np.float64)[:, None])
+                        value=np.concatenate(value).astype(np.float64))
 
 
 def _accept_all() -> ForestArrays:
