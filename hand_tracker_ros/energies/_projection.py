@@ -32,7 +32,7 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera import PinholeCamera, distort_point, pixel_jacobian
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,16 +83,15 @@ def _rows(vertices, vertices_jac, ids, R, t, intrinsics, dist8, targets, s, norm
 
     numba because the numpy form (``PinholeCamera.project_jacobian`` then two einsums per
     block) spends most of its time in dispatch and temporaries of a few thousand rows, and it
-    runs once per camera and term at every LM evaluation. The projection and its derivative
-    repeat :meth:`PinholeCamera.project_jacobian` exactly (the test compares them).
+    runs once per camera and term at every LM evaluation. The distortion and its derivative
+    are the camera module's kernels (the test compares the rows with
+    :meth:`PinholeCamera.project_jacobian` and the chain rule).
     """
     n, n_p = ids.shape[0], vertices_jac.shape[2]
     per = 1 if line else 2
     r = np.empty(n * per)
     J = np.zeros((n * per if jacobian else 0, n_p))
     fx, fy, cx, cy = intrinsics[0], intrinsics[1], intrinsics[2], intrinsics[3]
-    k1, k2, p1, p2, k3, k4, k5, k6 = (dist8[0], dist8[1], dist8[2], dist8[3], dist8[4],
-                                      dist8[5], dist8[6], dist8[7])
     g = np.empty((2, 3))
     pc = np.empty(3)
     for i in range(n):
@@ -102,30 +101,19 @@ def _rows(vertices, vertices_jac, ids, R, t, intrinsics, dist8, targets, s, norm
                      + R[a, 2] * vertices[v, 2] + t[a])
         inv_z = 1.0 / pc[2] if pc[2] > 0.0 else np.nan
         x, y = pc[0] * inv_z, pc[1] * inv_z
-        r2 = x * x + y * y
-        num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
-        f = num / den
-        du = fx * (x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)) + cx - targets[i, 0]
-        dv = fy * (y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y) + cy - targets[i, 1]
+        xd, yd, f, r2, num, den = distort_point(x, y, dist8)
+        du = fx * xd + cx - targets[i, 0]
+        dv = fy * yd + cy - targets[i, 1]
         if line:
             r[i] = s[i] * (normals[i, 0] * du + normals[i, 1] * dv)
         else:
             r[2 * i], r[2 * i + 1] = s[i] * du, s[i] * dv
         if not jacobian:
             continue
-        dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
-        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
-        df_dr2 = (dnum * den - num * dden) / (den * den)
-        a_ = f + 2.0 * x * x * df_dr2 + 2.0 * p1 * y + 6.0 * p2 * x
-        b_ = 2.0 * x * y * df_dr2 + 2.0 * p1 * x + 2.0 * p2 * y
-        d_ = f + 2.0 * y * y * df_dr2 + 6.0 * p1 * y + 2.0 * p2 * x
-        # d(u, v)/d(camera point), then rotate to d(u, v)/dX_world, weighted.
-        q0 = (fx * a_ * inv_z, fx * b_ * inv_z, -fx * (a_ * x + b_ * y) * inv_z)
-        q1 = (fy * b_ * inv_z, fy * d_ * inv_z, -fy * (b_ * x + d_ * y) * inv_z)
-        for c in range(3):
-            g[0, c] = s[i] * (q0[0] * R[0, c] + q0[1] * R[1, c] + q0[2] * R[2, c])
-            g[1, c] = s[i] * (q1[0] * R[0, c] + q1[1] * R[1, c] + q1[2] * R[2, c])
+        pixel_jacobian(x, y, inv_z, f, r2, num, den, fx, fy, R, dist8, g)
+        for c in range(3):   # weighted
+            g[0, c] = s[i] * g[0, c]
+            g[1, c] = s[i] * g[1, c]
         if line:
             for c in range(3):
                 g[0, c] = normals[i, 0] * g[0, c] + normals[i, 1] * g[1, c]

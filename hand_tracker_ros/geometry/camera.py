@@ -19,7 +19,7 @@ as ``p = R X + t`` with ``[R | t] = T_cam_world[:3]``. With ``x = p_x / p_z`` an
 Pixel convention: the centre of pixel (column u, row v) is at integer coordinates (u, v),
 as in OpenCV and ROS; the pixel covers [u - 0.5, u + 0.5) x [v - 0.5, v + 0.5).
 
-The projection is written in numpy rather than with ``cv2.projectPoints``: the latter always
+The projection is written out (one numba pass) rather than done with ``cv2.projectPoints``: the latter always
 computes its 2N x 15 Jacobian w.r.t. the camera parameters and is about 10x slower for the
 tracker's job (perf-notes, section 2). The Jacobian w.r.t. the world point is the chain
 ``d(uv)/dX = diag(f_x, f_y) . d(x_d, y_d)/d(x, y) . d(x, y)/dp . R`` with
@@ -88,18 +88,60 @@ def _check_rigid(cam: str, T: FloatArray) -> None:
 
 
 @numba.njit(cache=True, nogil=True)
-def _project(points, R, t, K, dist8):  # pragma: no cover - compiled
-    """Pixel coordinates (N, 2) and depths (N,) of world points (N, 3); NaN behind the camera.
+def distort_point(x, y, dist8):  # pragma: no cover - compiled
+    """Distorted normalised coordinates ``(x_d, y_d)`` of ``(x, y)`` (module docstring), and
+    the pieces ``(f, r2, num, den)`` that :func:`pixel_jacobian` reuses. ``dist8`` is
+    ``PinholeCamera.dist8``. The one copy of the distortion model: every projection kernel
+    (here and in ``energies._projection``) calls it."""
+    k1, k2, p1, p2, k3, k4, k5, k6 = (dist8[0], dist8[1], dist8[2], dist8[3], dist8[4],
+                                      dist8[5], dist8[6], dist8[7])
+    r2 = x * x + y * y
+    num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+    f = num / den
+    xd = x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+    yd = y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    return xd, yd, f, r2, num, den
+
+
+@numba.njit(cache=True, nogil=True)
+def pixel_jacobian(x, y, inv_z, f, r2, num, den, fx, fy, R, dist8, out):  # pragma: no cover
+    """Write ``d(u, v)/dX_world`` (2, 3) of one point into ``out``.
+
+    ``x, y`` are its normalised coordinates, ``inv_z = 1 / p_z`` and ``f, r2, num, den`` the
+    pieces :func:`distort_point` returned: ``d(x_d, y_d)/d(x, y) = [[a, b], [b, d]]`` (with
+    ``dr2/dx = 2x``, ``dr2/dy = 2y``), times ``diag(f_x, f_y)``, ``d(x, y)/dp = inv_z [[1, 0,
+    -x], [0, 1, -y]]`` and ``dp/dX = R``.
+    """
+    k1, k2, p1, p2, k3, k4, k5, k6 = (dist8[0], dist8[1], dist8[2], dist8[3], dist8[4],
+                                      dist8[5], dist8[6], dist8[7])
+    dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+    dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+    df_dr2 = (dnum * den - num * dden) / (den * den)
+    a = f + 2.0 * x * x * df_dr2 + 2.0 * p1 * y + 6.0 * p2 * x
+    b = 2.0 * x * y * df_dr2 + 2.0 * p1 * x + 2.0 * p2 * y
+    d = f + 2.0 * y * y * df_dr2 + 6.0 * p1 * y + 2.0 * p2 * x
+    q0 = (fx * a * inv_z, fx * b * inv_z, -fx * (a * x + b * y) * inv_z)
+    q1 = (fy * b * inv_z, fy * d * inv_z, -fy * (b * x + d * y) * inv_z)
+    for c in range(3):
+        out[0, c] = q0[0] * R[0, c] + q0[1] * R[1, c] + q0[2] * R[2, c]
+        out[1, c] = q1[0] * R[0, c] + q1[1] * R[1, c] + q1[2] * R[2, c]
+
+
+@numba.njit(cache=True, nogil=True)
+def _project(points, R, t, K, dist8, jacobian):  # pragma: no cover - compiled
+    """Pixel coordinates (N, 2), depths (N,) and, with ``jacobian``, ``d(u, v)/dX`` (N, 2, 3)
+    (else (0, 2, 3)) of world points (N, 3); NaN behind the camera.
 
     numba because the tracker projects the whole mesh (about 5k vertices) into every camera
     at every correspondence round, where the numpy form spent ~0.2 ms per camera on a dozen
-    elementwise temporaries. Same formulas as ``PinholeCamera.project_jacobian``.
+    elementwise temporaries.
     """
     n = points.shape[0]
     uv = np.empty((n, 2))
     z = np.empty(n)
-    k1, k2, p1, p2, k3, k4, k5, k6 = (dist8[0], dist8[1], dist8[2], dist8[3], dist8[4],
-                                      dist8[5], dist8[6], dist8[7])
+    duv_dX = np.empty((n if jacobian else 0, 2, 3))
+    fx, fy = K[0, 0], K[1, 1]
     for i in range(n):
         c0 = R[0, 0] * points[i, 0] + R[0, 1] * points[i, 1] + R[0, 2] * points[i, 2] + t[0]
         c1 = R[1, 0] * points[i, 0] + R[1, 1] * points[i, 1] + R[1, 2] * points[i, 2] + t[1]
@@ -107,11 +149,13 @@ def _project(points, R, t, K, dist8):  # pragma: no cover - compiled
         z[i] = c2
         inv_z = 1.0 / c2 if c2 > 0.0 else np.nan
         x, y = c0 * inv_z, c1 * inv_z
-        r2 = x * x + y * y
-        f = (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1.0 + r2 * (k4 + r2 * (k5 + r2 * k6)))
-        uv[i, 0] = K[0, 0] * (x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)) + K[0, 2]
-        uv[i, 1] = K[1, 1] * (y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y) + K[1, 2]
-    return uv, z
+        xd, yd, f, r2, num, den = distort_point(x, y, dist8)
+        uv[i, 0] = fx * xd + K[0, 2]
+        uv[i, 1] = fy * yd + K[1, 2]
+        if not jacobian:
+            continue
+        pixel_jacobian(x, y, inv_z, f, r2, num, den, fx, fy, R, dist8, duv_dX[i])
+    return uv, z, duv_dX
 
 
 @dataclass(frozen=True, eq=False)
@@ -248,22 +292,11 @@ class PinholeCamera:
         K[1, 2] = sy * (K[1, 2] + 0.5) - 0.5
         return PinholeCamera(self.name, width, height, K, self.dist, self.T_cam_world)
 
-    def _to_camera(self, points_world: ArrayLike) -> FloatArray:
+    def _points(self, points_world: ArrayLike) -> FloatArray:
         pts = np.asarray(points_world, dtype=np.float64)
         check_shape('points_world', pts, (None, 3))
         check_finite('points_world', pts)
-        return pts @ self.R_cam_world.T + self.T_cam_world[:3, 3]
-
-    def _distort(self, x: FloatArray, y: FloatArray) -> tuple[FloatArray, ...]:
-        """Distorted normalised coordinates and the radial factor pieces used by the Jacobian."""
-        k1, k2, p1, p2, k3, k4, k5, k6 = self._dist8
-        r2 = x * x + y * y
-        num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
-        f = num / den
-        xd = x * f + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-        yd = y * f + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-        return xd, yd, f, r2, num, den
+        return pts
 
     def project(self, points_world: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Project world points to distorted pixel coordinates.
@@ -280,10 +313,9 @@ class PinholeCamera:
         depth_m : (N,) float64
             Camera-frame z of each point.
         """
-        pts = np.asarray(points_world, dtype=np.float64)
-        check_shape('points_world', pts, (None, 3))
-        check_finite('points_world', pts)
-        return _project(pts, self.R_cam_world, self.T_cam_world[:3, 3], self.K, self._dist8)
+        uv, z, _ = _project(self._points(points_world), self.R_cam_world,
+                            self.T_cam_world[:3, 3], self.K, self._dist8, False)
+        return uv, z
 
     def project_jacobian(self, points_world: ArrayLike
                          ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -303,30 +335,8 @@ class PinholeCamera:
         duv_dX : (N, 2, 3) float64
             ``d(u, v) / d(X_world)`` (px / m), distortion included; NaN behind the camera.
         """
-        p = self._to_camera(points_world)
-        z = p[:, 2]
-        inv_z = np.divide(1.0, z, out=np.full_like(z, np.nan), where=z > 0)
-        x, y = p[:, 0] * inv_z, p[:, 1] * inv_z
-        xd, yd, f, r2, num, den = self._distort(x, y)
-        k1, k2, p1, p2, k3, k4, k5, k6 = self._dist8
-        dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
-        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
-        df_dr2 = (dnum * den - num * dden) / (den * den)
-        # d(xd, yd)/d(x, y), using dr2/dx = 2x and dr2/dy = 2y.
-        a = f + 2.0 * x * x * df_dr2 + 2.0 * p1 * y + 6.0 * p2 * x
-        b = 2.0 * x * y * df_dr2 + 2.0 * p1 * x + 2.0 * p2 * y
-        d = f + 2.0 * y * y * df_dr2 + 6.0 * p1 * y + 2.0 * p2 * x
-        fx, fy = self.K[0, 0], self.K[1, 1]
-        # d(x, y)/dp = inv_z * [[1, 0, -x], [0, 1, -y]]; compose with the distortion block.
-        duv_dp = np.empty((z.size, 2, 3))
-        duv_dp[:, 0, 0] = fx * a * inv_z
-        duv_dp[:, 0, 1] = fx * b * inv_z
-        duv_dp[:, 0, 2] = -fx * (a * x + b * y) * inv_z
-        duv_dp[:, 1, 0] = fy * b * inv_z
-        duv_dp[:, 1, 1] = fy * d * inv_z
-        duv_dp[:, 1, 2] = -fy * (b * x + d * y) * inv_z
-        uv = np.stack([fx * xd + self.K[0, 2], fy * yd + self.K[1, 2]], axis=1)
-        return uv, z, duv_dp @ self.R_cam_world
+        return _project(self._points(points_world), self.R_cam_world, self.T_cam_world[:3, 3],
+                        self.K, self._dist8, True)
 
     def rays(self, uv_px: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Back-project pixels to world rays (undistorting with ``cv2.undistortPoints``).
