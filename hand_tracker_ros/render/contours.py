@@ -216,7 +216,7 @@ def contour_points(camera: PinholeCamera, vertices_world: ArrayLike, edges: Mesh
     """
     verts = np.ascontiguousarray(vertices_world, dtype=np.float64)
     check_shape('vertices_world', verts, (raster.uv_px.shape[0], 3))
-    front = _front_facing(verts, edges.faces, camera.center_world)
+    front = front_facing(camera, verts, edges.faces)
     uv = raster.uv_px
     acc, on = _contour_normals(uv, front, edges.vertices, edges.faces_of_edge, edges.opposite)
     length = np.hypot(acc[:, 0], acc[:, 1])
