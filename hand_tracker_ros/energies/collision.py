@@ -11,6 +11,10 @@ of the receiver face ``g`` and the three vertices of ``g`` against the cone of `
 with the cone field of :mod:`hand_tracker_ros.energies.cone_field` and ``u = model_unit_m``.
 The constraints are held fixed for the round, so ``M`` does not change during its LM steps;
 a constraint whose vertex is outside its cone contributes ``r = 0`` and a zero Jacobian row.
+The constraints of the frame's earlier rounds (``context.collisions``) are kept: the pairs
+are found only at a round's start, and without that memory a round that resolves one contact
+can slide the finger into the next one unseen, and back in the round after (measured on the
+ablation rows without the silhouette term, where edges matched to the wrong finger pull).
 When a round yields more than ``max_pairs`` constraints, the ``max_pairs`` largest residuals
 at the start of the round are kept (Ballan caps the collision residuals at 600 per solve).
 
@@ -134,10 +138,12 @@ class CollisionEnergy:
 
     def correspond(self, context: Any) -> CollisionPairs:
         """Constraints for one round, from ``context.posed.vertices_m`` (V, 3) float64."""
-        return self.pairs_at(context.posed.vertices_m)
+        return self.pairs_at(context.posed.vertices_m, context.collisions)
 
-    def pairs_at(self, vertices_m: FloatArray) -> CollisionPairs:
-        """Constraints of the mesh posed at ``vertices_m`` (V, 3) float64."""
+    def pairs_at(self, vertices_m: FloatArray, keep: CollisionPairs | None = None
+                 ) -> CollisionPairs:
+        """Constraints of the mesh posed at ``vertices_m`` (V, 3) float64, plus the ones of
+        ``keep`` (earlier rounds of the frame)."""
         check_shape('vertices_m', vertices_m, (self._n_vertices, 3))
         empty = np.zeros(0, dtype=np.int64)
         if not self.config.enabled:
@@ -145,25 +151,28 @@ class CollisionEnergy:
         else:
             face_pairs = intersecting_pairs(vertices_m, self.faces, self.face_part,
                                             self.adjacent_parts)
-            vertex_ids, face_ids = self._constraints(vertices_m, face_pairs)
+            vertex_ids, face_ids = self._constraints(vertices_m, face_pairs, keep)
             pairs = CollisionPairs(face_pairs, vertex_ids, face_ids)
         _readonly(pairs.face_pairs, pairs.vertex_ids, pairs.face_ids)
         logger.debug('collision: %d face pairs, %d constraints', len(pairs.face_pairs),
                      pairs.n_residuals)
         return pairs
 
-    def _constraints(self, vertices_m: FloatArray, face_pairs: IntArray
-                     ) -> tuple[IntArray, IntArray]:
-        """Unique (vertex, receiver face) constraints, capped at ``max_pairs`` largest ``r``."""
+    def _constraints(self, vertices_m: FloatArray, face_pairs: IntArray,
+                     keep: CollisionPairs | None) -> tuple[IntArray, IntArray]:
+        """Unique (vertex, receiver face) constraints of ``face_pairs`` and ``keep``, capped at
+        ``max_pairs`` largest ``r``."""
         intruder = np.concatenate([face_pairs[:, 0], face_pairs[:, 1]])
         receiver = np.concatenate([face_pairs[:, 1], face_pairs[:, 0]])
         both = np.stack([self.faces[intruder].ravel(), np.repeat(receiver, 3)], axis=1)
+        if keep is not None:
+            both = np.concatenate([both, np.stack([keep.vertex_ids, keep.face_ids], axis=1)])
         both = np.unique(both, axis=0)
         vertex_ids, face_ids = both[:, 0], both[:, 1]
         if len(vertex_ids) > self.config.max_pairs:
             rho = self._rho(vertices_m, vertex_ids, face_ids)
-            keep = np.sort(np.argsort(-rho, kind='stable')[:self.config.max_pairs])
-            vertex_ids, face_ids = vertex_ids[keep], face_ids[keep]
+            top = np.sort(np.argsort(-rho, kind='stable')[:self.config.max_pairs])
+            vertex_ids, face_ids = vertex_ids[top], face_ids[top]
         return vertex_ids.astype(np.int64), face_ids.astype(np.int64)
 
     def _rho(self, vertices_m: FloatArray, vertex_ids: IntArray, face_ids: IntArray

@@ -20,6 +20,10 @@ PSO-64x25  the same at the budget of HOPE's released tracker (64 x 25), about 12
            the LM method's time per frame
 =========  =========================================================
 
+C is the cone distance field with its volume backstop (``collision`` and ``volume``), and
+every row with C ends a frame with the separation rounds (``tracker.separation``). PSO has
+no separation rounds: it minimises the objective as it is.
+
 At the time-matched budget the swarm, scattered with HOPE's spreads (10 mm, 0.1 rad) around
 the previous estimate, found no particle better than that estimate (particle 0) in the frames
 we checked, so that row measures holding the previous pose; at HOPE's budget it moves.
@@ -31,12 +35,12 @@ from typing import Any
 from hand_tracker_ros.config import flatten, from_mapping
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 
-TERMS = ('edges', 'flow', 'salient', 'collision', 'limits', 'silhouette', 'temporal')
+TERMS = ('edges', 'flow', 'salient', 'collision', 'volume', 'limits', 'silhouette', 'temporal')
 ABLATION = {
     'LO+E': ('edges', 'temporal'),
-    'LO+EC': ('edges', 'collision', 'temporal'),
-    'LO+ECO': ('edges', 'collision', 'flow', 'temporal'),
-    'LO+ECOS': ('edges', 'collision', 'flow', 'salient', 'temporal'),
+    'LO+EC': ('edges', 'collision', 'volume', 'temporal'),
+    'LO+ECO': ('edges', 'collision', 'volume', 'flow', 'temporal'),
+    'LO+ECOS': ('edges', 'collision', 'volume', 'flow', 'salient', 'temporal'),
     'full': TERMS,
 }
 # PSO gets about the time budget of the full LM method: particles x generations objective

@@ -7,12 +7,15 @@ E      edges         model contours to oriented image edges (px)         Ballan 
 O      flow          points visible at t-1 carried by optical flow (px)  Ballan et al. 2012
 S      salient       fingertips to detections, assignment re-solved (px) Ballan et al. 2012
 C      collision     cone distance field between non-adjacent parts      Ballan, supplementary
+C      volume        overlap of sphere-mesh balls, deep contacts (m)     htrack / hmodel
 L      limits        limiting rotation R_L, finger planes (m)            convolution surfaces
 Sil    silhouette    model silhouette points to camera rays (m)          convolution surfaces
 T      temporal      constant-velocity prior on the 3D keypoints (m)     htrack
 =====  ============  ==================================================  =====================
 
-Each config has ``enabled`` and ``weight``; the ablation switches terms by ``enabled``.
+Each config has ``enabled`` and ``weight``; the ablation switches terms by ``enabled``. C is
+two terms: the cone field for contact, and the volume term as a backstop where a part has sunk
+too deep for the cone field (:mod:`hand_tracker_ros.energies.volume_collision`).
 """
 from __future__ import annotations
 
@@ -27,6 +30,8 @@ from hand_tracker_ros.energies.joint_limits import JointLimitsConfig, JointLimit
 from hand_tracker_ros.energies.salient import SalientConfig, SalientEnergy
 from hand_tracker_ros.energies.silhouette import SilhouetteConfig, SilhouetteEnergy
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy
+from hand_tracker_ros.energies.volume_collision import (VolumeCollisionConfig,
+                                                        VolumeCollisionEnergy)
 from hand_tracker_ros.tracking.problem import Term
 
 
@@ -38,13 +43,15 @@ class TermsConfig:
     flow: FlowEnergyConfig = nested(FlowEnergyConfig)
     salient: SalientConfig = nested(SalientConfig)
     collision: CollisionConfig = nested(CollisionConfig)
+    volume: VolumeCollisionConfig = nested(VolumeCollisionConfig)
     limits: JointLimitsConfig = nested(JointLimitsConfig)
     silhouette: SilhouetteConfig = nested(SilhouetteConfig)
     temporal: TemporalConfig = nested(TemporalConfig)
 
 
 _ENERGIES = (('edges', EdgeEnergy), ('flow', FlowEnergy), ('salient', SalientEnergy),
-             ('collision', CollisionEnergy), ('limits', JointLimitsEnergy),
+             ('collision', CollisionEnergy), ('volume', VolumeCollisionEnergy),
+             ('limits', JointLimitsEnergy),
              ('silhouette', SilhouetteEnergy), ('temporal', TemporalEnergy))
 
 

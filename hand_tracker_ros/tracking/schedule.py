@@ -6,11 +6,6 @@ re-found before it, and uses optical flow only in the first 25 % of the rounds (
 initial jump; edges and salient points refine). That is 300 LM iterations per frame, far over
 a real-time budget; with a warm start from the previous frame a few rounds of a few
 iterations keep most of the accuracy (the evaluation reports the trade-off).
-
-Collision rounds: the collision pairs of a round are fixed at its start, so its last LM steps
-can push two fingers into each other unseen. After the schedule, up to ``collision_rounds``
-extra full rounds (without flow) run while non-adjacent parts of the estimate still
-intersect; a frame without contact pays only the pair search (about 1 ms).
 """
 from __future__ import annotations
 
@@ -33,9 +28,6 @@ class ScheduleConfig:
     iterations: int = param(4, 'LM iterations per round (Ballan: 10)', low=1, high=100)
     flow_fraction: float = param(0.25, 'fraction of the rounds that use optical flow',
                                  low=0.0, high=1.0)
-    collision_rounds: int = param(1, 'extra full rounds while non-adjacent parts of the '
-                                  'estimate intersect',
-                                  low=0, high=10)
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,10 @@ rounds of :mod:`.schedule`. Each round poses the model, renders it into every ca
 (:func:`.views.model_views`), lets every enabled energy find its correspondences (edge matches,
 flow targets, the fingertip assignment, colliding triangle pairs, limit activity, ...) and runs
 box-constrained Levenberg-Marquardt (:mod:`hand_tracker_ros.optim.lm`) on the weighted sum
-(:mod:`.problem`) with those correspondences fixed.
+(:mod:`.problem`) with those correspondences fixed. The cone-field constraints of a frame's
+earlier rounds stay in its later ones (``RoundContext.collisions``). While non-adjacent parts
+of the fitted estimate still intersect, separation rounds (:mod:`.separation`) push them
+apart.
 
 After the last round the estimate is checked (:mod:`.health`): a non-finite result or a model
 silhouette that is no longer covered by the observed foreground masks marks the frame LOST;
@@ -25,6 +28,7 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.energies.collision import CollisionPairs
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
@@ -36,6 +40,7 @@ from hand_tracker_ros.tracking.health import FailureConfig, silhouette_coverage
 from hand_tracker_ros.tracking.observations import FrameObservations
 from hand_tracker_ros.tracking.problem import Problem
 from hand_tracker_ros.tracking.schedule import ScheduleConfig, rounds
+from hand_tracker_ros.tracking.separation import SeparationConfig, Separator
 from hand_tracker_ros.tracking.views import ModelView, PreviousFrame, RoundContext, model_views
 
 LOG = logging.getLogger(__name__)
@@ -56,6 +61,7 @@ class TrackerConfig:
     solver: str = param('lm', 'Levenberg-Marquardt (the method) or PSO (the HOPE baseline)',
                         choices=('lm', 'pso'))
     schedule: ScheduleConfig = nested(ScheduleConfig)
+    separation: SeparationConfig = nested(SeparationConfig)
     lm: LMConfig = nested(LMConfig)
     pso: PSOConfig = nested(PSOConfig)
     terms: TermsConfig = nested(TermsConfig)
@@ -87,7 +93,7 @@ class HandTracker:
         self.config = config
         self._edges = MeshEdges.from_faces(model.faces)
         self._terms = build_terms(config.terms, model)
-        self._collision = next((t.energy for t in self._terms if t.name == 'collision'), None)
+        self._separator = Separator(model, self._terms, config.separation, self._lm_config())
         self._rounds = rounds(config.schedule)
         self._previous: PreviousFrame | None = None
         self._lost_frames = 0
@@ -113,12 +119,13 @@ class HandTracker:
 
     def _solve_round(self, theta: FloatArray, free: np.ndarray, use_flow: bool,
                      observations: FrameObservations, timings: dict[str, float],
-                     start_views: tuple[ModelView, ...] | None = None
+                     start_views: tuple[ModelView, ...] | None,
+                     collisions: CollisionPairs | None
                      ) -> tuple[FloatArray, int, Problem, tuple[Any, ...]]:
         start = time.perf_counter()
         posed = self.model.pose(theta, jacobian=False)
         views = start_views if start_views is not None else self.views(posed)
-        context = RoundContext(posed, views, observations, self._previous)
+        context = RoundContext(posed, views, observations, self._previous, collisions)
         terms = [t for t in self._terms if use_flow or t.name != 'flow']
         problem = Problem(self.model, terms)
         mid = time.perf_counter()
@@ -157,14 +164,6 @@ class HandTracker:
         timings['solve'] = time.perf_counter() - start
         return result.x, result.evaluations, problem, anchor_corrs[-1]
 
-    def _intersects(self, vertices_m: FloatArray, timings: dict[str, float]) -> bool:
-        """Whether non-adjacent parts of the hand posed at ``vertices_m`` (V, 3) intersect."""
-        start = time.perf_counter()
-        found = self._collision.pairs_at(vertices_m).n_residuals > 0
-        timings['collision_check'] = (timings.get('collision_check', 0.0)
-                                      + time.perf_counter() - start)
-        return found
-
     def _lm_config(self) -> LMConfig:
         lm = self.config.lm
         return LMConfig(max_iterations=self.config.schedule.iterations, tau=lm.tau,
@@ -186,20 +185,19 @@ class HandTracker:
                                                                          timings)
         # The first round starts at the previous estimate, whose views are already rendered.
         start_views: tuple[ModelView, ...] | None = self._previous.views
+        collisions: CollisionPairs | None = None     # the frame's constraints so far
         for rnd in self._rounds if self.config.solver == 'lm' else ():
             theta, n_iter, problem, correspondences = self._solve_round(
-                theta, rnd.free, rnd.use_flow, observations, timings, start_views)
+                theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions)
+            collisions = dict(zip(problem.names, correspondences)).get('collision')
             start_views = None
             iterations += n_iter
+        if self.config.solver == 'lm':
+            t0 = time.perf_counter()
+            separated = self._separator.separate(theta, collisions)
+            timings['separation'] = time.perf_counter() - t0
+            theta, iterations = separated.theta, iterations + separated.iterations
         posed = self.model.pose(theta, jacobian=False)
-        extra = self.config.schedule.collision_rounds if self.config.solver == 'lm' else 0
-        for _ in range(extra if self._collision is not None else 0):
-            if not self._intersects(posed.vertices_m, timings):
-                break
-            theta, n_iter, problem, correspondences = self._solve_round(
-                theta, np.ones(theta.size, bool), False, observations, timings)
-            iterations += n_iter
-            posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
         views = self.views(posed)
         coverage = silhouette_coverage(views, observations)

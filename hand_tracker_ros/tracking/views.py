@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from hand_tracker_ros.energies.collision import CollisionPairs
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.render.contours import ContourConfig, ContourPoints, MeshEdges, contour_points
 from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, render
@@ -58,9 +59,15 @@ class PreviousFrame:
 
 @dataclass(frozen=True, eq=False)
 class RoundContext:
-    """Everything ``Energy.correspond`` may use for one correspondence round."""
+    """Everything ``Energy.correspond`` may use for one correspondence round.
+
+    ``collisions`` holds the cone-field constraints of the frame's earlier rounds, which the
+    collision term keeps (a round's LM steps could otherwise slide a finger back into a
+    contact an earlier round resolved, unseen until the next round).
+    """
 
     posed: Any
     views: tuple[ModelView, ...]
     observations: FrameObservations
     previous: PreviousFrame | None
+    collisions: CollisionPairs | None = None

@@ -58,7 +58,7 @@ _THETA0 = np.array([0.0005, -0.0003, 0.0004, 0.3, 0.2])
 def test_pairs_are_symmetric_vertex_face_constraints() -> None:
     energy = _energy()
     posed = _pose(_THETA0)
-    pairs = energy.correspond(SimpleNamespace(posed=posed))
+    pairs = energy.correspond(SimpleNamespace(posed=posed, collisions=None))
     assert len(pairs.face_pairs) > 5
     assert pairs.n_residuals == len(pairs.vertex_ids) == len(pairs.face_ids)
     # Every constraint pairs a vertex of one part with a face of the other part.

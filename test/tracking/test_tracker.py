@@ -84,8 +84,8 @@ def test_schedule_freezes_distal_joints_in_coarse_rounds() -> None:
     assert not plan[0].free.all() and plan[3].free.all()
 
 
-def test_collision_rounds_separate_fingers_the_schedule_left_intersecting(hand_model,
-                                                                          grasp) -> None:
+def test_separation_rounds_separate_fingers_the_schedule_left_intersecting(hand_model,
+                                                                           grasp) -> None:
     from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
     from hand_tracker_ros.model.layout import PARAM_NAMES
 
@@ -106,7 +106,7 @@ def test_collision_rounds_separate_fingers_the_schedule_left_intersecting(hand_m
     for extra in (0, 3):
         config = from_mapping(PipelineConfig, {
             'tracker.schedule.coarse_rounds': 0, 'tracker.schedule.full_rounds': 1,
-            'tracker.schedule.iterations': 3, 'tracker.schedule.collision_rounds': extra})
+            'tracker.schedule.iterations': 3, 'tracker.separation.rounds': extra})
         pipeline = OfflinePipeline(hand_model, sequence.rig, config)
         pipeline.tracker.reset(start)
         result = pipeline.step(FrameSet(frame.stamp_ns, frame.images))
