@@ -190,16 +190,19 @@ class VolumeCollisionEnergy:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per unit)."""
         if pairs.n_residuals == 0:
             return np.zeros(0), np.zeros((0, P))
-        w = self.weights[pairs.first] - self.weights[pairs.second]          # (M, S)
         centers = self.weights @ posed.sphere_centers_m
-        delta = centers[pairs.first] - centers[pairs.second]                # (M, 3)
-        dist = np.linalg.norm(delta, axis=1)
-        r = self.radii_m[pairs.first] + self.radii_m[pairs.second] - self.config.margin_m - dist
-        active = r > 0.0
-        u = delta / np.where(dist > 0.0, dist, 1.0)[:, None]
-        d_delta = np.einsum('ms,skp->mkp', w, posed.sphere_centers_jac)     # (M, 3, P)
-        jac = -np.einsum('mk,mkp->mp', u, d_delta)
-        return np.where(active, r, 0.0), np.where(active[:, None], jac, 0.0)
+        r = self.overlaps(centers, np.column_stack([pairs.first, pairs.second]))
+        active = np.flatnonzero(r > 0.0)
+        jac = np.zeros((pairs.n_residuals, P))
+        if active.size:
+            a, b = pairs.first[active], pairs.second[active]
+            delta = centers[a] - centers[b]                                    # (K, 3)
+            u = delta / np.maximum(np.linalg.norm(delta, axis=1), 1e-12)[:, None]
+            # d(c_a - c_b)/dtheta = (W_a - W_b) dS/dtheta, one (K, S) x (S, 3P) product.
+            d_delta = (self.weights[a] - self.weights[b]) @ posed.sphere_centers_jac.reshape(
+                -1, 3 * P)
+            jac[active] = -np.einsum('kc,kcp->kp', u, d_delta.reshape(-1, 3, P))
+        return np.maximum(r, 0.0), jac
 
 
 def candidate_pairs(rest_centers_m: FloatArray, radii_m: FloatArray, part: IntArray,
