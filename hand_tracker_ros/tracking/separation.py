@@ -2,8 +2,9 @@ r"""Separation rounds: push apart the parts the fitted estimate still has inside
 
 The image terms can hold two fingers inside each other against the collision terms: when the
 tracker has drifted, edges of one finger are matched to the other's, and the cone field's
-push (bounded per constraint, :mod:`hand_tracker_ros.energies.cone_field`) loses against a few
-hundred pulling edge residuals (measured on the ablation rows without the silhouette term:
+push (a residual of at most about 1 per constraint within a cone height of the surface,
+:mod:`hand_tracker_ros.energies.cone_field`) loses against a few hundred pulling edge
+residuals (measured on the ablation rows without the silhouette term:
 2-8 mm deep frames with the collision term on). After the data rounds, while non-adjacent parts
 of the estimate ``theta_0`` intersect, each separation round minimises the collision terms
 alone against an anchor that keeps the hand where the data put it::
@@ -15,7 +16,7 @@ alone against an anchor that keeps the hand where the data put it::
 keypoints), i.e. the nearest pose without the contact, in the metric of keypoint motion: a
 projection of the estimate onto the physically plausible poses, in the spirit of the physics
 step Tzionas et al. (IJCV 2016) add to Ballan's tracker. The anchor weight ``w_A`` is low
-(1e5: 1 cm of keypoint motion costs 5 units, one collision constraint at most ~1e3), so the
+(1e5: 1 cm of keypoint motion costs 5, one cone constraint a cone height deep 1.5e3), so the
 collision terms win wherever they are active, and the anchor only chooses among the poses that
 resolve them. Constraints of the frame's earlier rounds are kept (see
 :class:`~hand_tracker_ros.tracking.views.RoundContext`), so a round cannot slide a finger back
