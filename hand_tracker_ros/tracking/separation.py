@@ -54,14 +54,14 @@ class SeparationConfig:
                                  high=1e12)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SeparationResult:
     """Outcome of :meth:`Separator.separate`."""
 
     theta: FloatArray                  # (P,)
+    posed: Any                         # the hand posed at ``theta`` (no Jacobian)
     rounds: int                        # separation rounds run
     iterations: int                    # LM iterations over them
-    collisions: CollisionPairs | None  # the frame's cone-field constraints after them
 
 
 class Separator:
@@ -88,38 +88,28 @@ class Separator:
                                 model.keypoint_local_m)
         self._anchor = Term(anchor, config.anchor_weight)
 
-    @property
-    def active(self) -> bool:
-        """Whether there are rounds to run (the cone-field term is on and rounds > 0)."""
-        return self._collision is not None and self.config.rounds > 0
-
-    def intersects(self, vertices_m: FloatArray) -> bool:
-        """Whether non-adjacent parts of the mesh at ``vertices_m`` (V, 3) intersect."""
-        return self._collision is not None and self._collision.pairs_at(vertices_m).n_residuals > 0
-
     def separate(self, theta: FloatArray, collisions: CollisionPairs | None
                  ) -> SeparationResult:
         """Separation rounds from ``theta`` (P,), keeping the frame's earlier ``collisions``."""
-        anchor = TemporalTarget(self.model.pose(theta, jacobian=False).keypoints_m)
+        posed = self.model.pose(theta, jacobian=False)
+        anchor = TemporalTarget(posed.keypoints_m)
         n_rounds = iterations = 0
-        for _ in range(self.config.rounds if self.active else 0):
-            posed = self.model.pose(theta, jacobian=False)
-            if not self.intersects(posed.vertices_m):
+        for _ in range(self.config.rounds if self._collision is not None else 0):
+            context = RoundContext(posed, (), FrameObservations(0, ()), None, collisions)
+            collisions = self._collision.correspond(context)
+            if len(collisions.face_pairs) == 0:     # no non-adjacent parts intersect now
                 break
-            correspondences: list[Any] = []
-            for term in self._terms:
-                if term.name == 'collision':
-                    context = RoundContext(posed, (), FrameObservations(0, ()), None, collisions)
-                    collisions = term.energy.correspond(context)
-                    correspondences.append(collisions)
-                else:   # every candidate ball pair: new contacts cannot hide beyond a reach
-                    correspondences.append(term.energy.pairs_at(posed.sphere_centers_m,
-                                                                reach_m=np.inf))
+            # The volume term over every candidate ball pair: no new contact hides beyond a
+            # reach.
+            correspondences = [collisions if t.name == 'collision' else
+                               t.energy.pairs_at(posed.sphere_centers_m, reach_m=np.inf)
+                               for t in self._terms]
             problem = Problem(self.model, [*self._terms, self._anchor])
             result = levenberg_marquardt(problem.function([*correspondences, anchor]), theta,
                                          self.model.lower, self.model.upper, config=self.lm,
                                          angular=Layout.revolute)
             theta = result.x
+            posed = self.model.pose(theta, jacobian=False)
             n_rounds += 1
             iterations += result.n_iterations
-        return SeparationResult(theta, n_rounds, iterations, collisions)
+        return SeparationResult(theta, posed, n_rounds, iterations)

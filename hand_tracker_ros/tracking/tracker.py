@@ -196,8 +196,10 @@ class HandTracker:
             t0 = time.perf_counter()
             separated = self._separator.separate(theta, collisions)
             timings['separation'] = time.perf_counter() - t0
-            theta, iterations = separated.theta, iterations + separated.iterations
-        posed = self.model.pose(theta, jacobian=False)
+            theta, posed = separated.theta, separated.posed
+            iterations += separated.iterations
+        else:
+            posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
         views = self.views(posed)
         coverage = silhouette_coverage(views, observations)
