@@ -63,15 +63,14 @@ class VolumeCollisionConfig:
 
 @dataclass(frozen=True)
 class BallPairs:
-    """The ball pairs of one round: ``first`` (M,) int64 and ``second`` (M,) int64."""
+    """The ball pairs of one round: ``ids`` (M, 2) int64, rows of ``candidates``."""
 
-    first: IntArray
-    second: IntArray
+    ids: IntArray
 
     @property
     def n_residuals(self) -> int:
         """M."""
-        return int(self.first.size)
+        return len(self.ids)
 
 
 def sample_balls(pills: IntArray, pill_part: IntArray, wedges: IntArray, radii_m: FloatArray,
@@ -173,14 +172,12 @@ class VolumeCollisionEnergy:
         (S, 3) float64 (m)."""
         reach_m = self.config.reach_m if reach_m is None else reach_m
         near = self.overlaps(self.weights @ sphere_centers_m, self.candidates)
-        chosen = self.candidates[near > -reach_m]
-        return BallPairs(chosen[:, 0].copy(), chosen[:, 1].copy())
+        return BallPairs(self.candidates[near > -reach_m])
 
     def residuals(self, posed: Any, pairs: BallPairs) -> FloatArray:
         """Residuals ``r (M,)`` (m), ``max(0, overlap)``."""
         centers = self.weights @ posed.sphere_centers_m
-        return np.maximum(self.overlaps(centers, np.column_stack([pairs.first, pairs.second])),
-                          0.0)
+        return np.maximum(self.overlaps(centers, pairs.ids), 0.0)
 
     def jacobian_vertices(self, pairs: BallPairs) -> IntArray:
         """No mesh vertex: the rows read ``sphere_centers_jac`` only."""
@@ -191,11 +188,11 @@ class VolumeCollisionEnergy:
         if pairs.n_residuals == 0:
             return np.zeros(0), np.zeros((0, P))
         centers = self.weights @ posed.sphere_centers_m
-        r = self.overlaps(centers, np.column_stack([pairs.first, pairs.second]))
+        r = self.overlaps(centers, pairs.ids)
         active = np.flatnonzero(r > 0.0)
         jac = np.zeros((pairs.n_residuals, P))
         if active.size:
-            a, b = pairs.first[active], pairs.second[active]
+            a, b = pairs.ids[active, 0], pairs.ids[active, 1]
             delta = centers[a] - centers[b]                                    # (K, 3)
             u = delta / np.maximum(np.linalg.norm(delta, axis=1), 1e-12)[:, None]
             # d(c_a - c_b)/dtheta = (W_a - W_b) dS/dtheta, one (K, S) x (S, 3P) product.
