@@ -20,7 +20,7 @@ from hand_tracker_ros.pipeline.offline import PipelineConfig
 from hand_tracker_ros.synthetic.edge_noise import EdgeNoiseConfig
 
 # (coarse rounds, full rounds, LM iterations per round); Ballan's is (10, 20, 10).
-SCHEDULES = ((0, 1, 4), (0, 2, 4), (1, 2, 4), (1, 4, 8))   # the default 1+3x4 is `full`
+SCHEDULES = ((0, 1, 4), (0, 2, 4), (1, 3, 4), (1, 4, 8))   # the default 1+2x4 is `full`
 
 
 def add_parser(sub: Any) -> None:

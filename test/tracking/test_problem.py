@@ -11,6 +11,7 @@ from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.problem import Problem
+from hand_tracker_ros.tracking.schedule import ScheduleConfig
 
 
 def _rounds_of_one_frame(hand_model, monkeypatch):
@@ -42,7 +43,8 @@ def _full_jacobian(problem, correspondences, theta):
 
 def test_restricted_skinning_gives_the_full_jacobian(hand_model, monkeypatch) -> None:
     rounds = _rounds_of_one_frame(hand_model, monkeypatch)
-    assert len(rounds) >= 4
+    schedule = ScheduleConfig()
+    assert len(rounds) == schedule.coarse_rounds + schedule.full_rounds
     for problem, correspondences, theta in rounds:
         r, J = problem.function(correspondences)(theta, True)
         assert r.size > 100
