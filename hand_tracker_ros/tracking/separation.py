@@ -24,6 +24,7 @@ into a contact an earlier one resolved.
 """
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -49,6 +50,10 @@ class SeparationConfig:
 
     rounds: int = param(3, 'separation rounds at most, each while non-adjacent parts of the '
                         'estimate intersect (0: off)', low=0, high=20)
+    iterations: int = param(10, 'LM iterations per separation round (Ballan: 10). Not the data '
+                            "rounds' count: the stiff collision residuals make LM reject its "
+                            'first, lightly damped steps, and a round of 4 iterations could end '
+                            'where it started', low=1, high=100)
     anchor_weight: float = param(1e5, 'weight of the keypoints staying where the data rounds '
                                  'put them (cost = 0.5 * weight * |dk|^2, dk in m)', low=0.0,
                                  high=1e12)
@@ -74,14 +79,15 @@ class Separator:
         The tracker's enabled terms; the ones named in ``COLLISION_TERMS`` are used.
     config : SeparationConfig
     lm : LMConfig
-        Settings of each round's Levenberg-Marquardt call.
+        Settings of each round's Levenberg-Marquardt call, but for the iteration count
+        (``config.iterations``).
     """
 
     def __init__(self, model: Any, terms: Sequence[Term], config: SeparationConfig,
                  lm: LMConfig) -> None:
         self.model = model
         self.config = config
-        self.lm = lm
+        self.lm = dataclasses.replace(lm, max_iterations=config.iterations)
         self._terms = [t for t in terms if t.name in COLLISION_TERMS]
         self._collision = next((t.energy for t in self._terms if t.name == 'collision'), None)
         anchor = TemporalEnergy(TemporalConfig(mode='damping'), model.rest,

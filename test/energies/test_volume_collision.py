@@ -102,3 +102,30 @@ def test_separation_rounds_push_crossed_fingers_apart(hand_model) -> None:
     untouched = separator.separate(hand_model.neutral_theta(), None)
     assert untouched.rounds == 0 and np.array_equal(untouched.theta,
                                                     hand_model.neutral_theta())
+
+
+# A tracked pose of the LO+EC row on the benchmark's random sequence (frame 26, seed 0): a
+# ring finger 1.1 mm inside its neighbour, which rounds of 4 LM iterations left in place.
+_SHALLOW_CONTACT = np.array([
+    0.028311218345815833, -0.10714601705201893, 0.0029145113514064047, -0.009211085529802654,
+    -1.6743564119041223, 0.17276372405090673, 0.746791697093688, 0.13238876500912788,
+    -0.07199199402443275, 1.1405731214035162, -0.4935988842750075, 0.17805295355456247,
+    1.3033231998851513, 1.548223430078786, -0.11776134868523185, 0.18750544900129174,
+    1.8920471388306126, 1.5707963267948966, -0.19005374159047753, 0.20691299469555088,
+    1.4939291095895548, 0.9952774901983716, 0.4283593751256676, 0.14637960398996241,
+    1.1718366377921905, 1.5707963267948966])
+
+
+def test_separation_rounds_have_iterations_enough_for_the_stiff_terms(hand_model) -> None:
+    assert _depth_mm(hand_model, _SHALLOW_CONTACT) > 1.0
+    terms = [Term(CollisionEnergy.from_model(CollisionConfig(), hand_model), 3e3),
+             Term(VolumeCollisionEnergy.from_model(VolumeCollisionConfig(), hand_model), 1e10)]
+    depth = {}
+    for iterations in (4, SeparationConfig().iterations):
+        separator = Separator(hand_model, terms, SeparationConfig(iterations=iterations),
+                              LMConfig(max_iterations=4))
+        depth[iterations] = _depth_mm(hand_model,
+                                      separator.separate(_SHALLOW_CONTACT, None).theta)
+    # LM rejects its first, lightly damped steps on these residuals: 4 per round never move.
+    assert depth[4] > 1.0
+    assert depth[SeparationConfig().iterations] < 0.5
