@@ -30,7 +30,7 @@ def main() -> None:
     args = parser.parse_args()
     detector = FingertipDetector.load(args.model, DetectorConfig())
     views = list(labelled_views(args.views, HELD_OUT_SEED))
-    detector.detect(views[0].image)  # warm-up: numba kernels
+    detector.detect(views[0].image)  # warm-up: ONNX Runtime allocates its buffers
     tally, times = DetectionTally(), []
     for view in views:
         start = time.perf_counter()

@@ -41,7 +41,8 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 # --- 1. venv and pinned requirements --------------------------------------------------------------
-REQS=("$ROOT"/requirements/ros-runtime.txt "$ROOT"/requirements/ros-build.txt "$ROOT"/requirements/python.txt)
+REQS=("$ROOT"/requirements/ros-runtime.txt "$ROOT"/requirements/ros-build.txt "$ROOT"/requirements/python.txt
+      "$ROOT"/requirements/train.txt)
 req_hash=$( { "$PYTHON" --version; cat "${REQS[@]}"; } | sha256sum | cut -d' ' -f1)
 if [ ! -x "$VENV/bin/python" ]; then
   log "creating venv $VENV"

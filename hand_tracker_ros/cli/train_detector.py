@@ -1,7 +1,8 @@
-"""`hand-tracker train-detector`: train the fingertip Hough forest on synthetic renders.
+"""`hand-tracker train-detector`: train the fingertip network on synthetic renders.
 
-The same seed and options give the same model file, byte for byte. The shipped model
-(hand_tracker_ros/vision/models/fingertip_forest.npz) is ``train-detector --seed 0``.
+Needs PyTorch (requirements/train.txt). The same seed and options give the same model file,
+byte for byte, on the same machine. The shipped model
+(hand_tracker_ros/vision/models/fingertip_cnn.onnx) is ``train-detector --seed 0``.
 """
 from __future__ import annotations
 
@@ -21,29 +22,26 @@ def add_parser(sub: Any) -> None:
     defaults = TrainingConfig()
     parser = sub.add_parser('train-detector', help='train the fingertip detector',
                             description=__doc__)
-    parser.add_argument('--seed', type=int, required=True, help='seed of data and forest')
+    parser.add_argument('--seed', type=int, required=True,
+                        help='seed of data, initialisation and batches')
     parser.add_argument('--out', default=None,
-                        help=f'output .npz (default: the shipped model, {default_model_path()})')
+                        help=f'output .onnx (default: the shipped model, {default_model_path()})')
     parser.add_argument('--views', type=int, default=defaults.n_views,
                         help=f'rendered training views (default {defaults.n_views})')
-    parser.add_argument('--trees', type=int, default=defaults.n_trees,
-                        help=f'trees of the forest (default {defaults.n_trees})')
-    parser.add_argument('--verifier-views', type=int, default=defaults.verifier_views,
-                        help=f'rendered views for the peak verifier (default '
-                             f'{defaults.verifier_views})')
+    parser.add_argument('--epochs', type=int, default=defaults.epochs,
+                        help=f'passes over the views (default {defaults.epochs})')
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Train and write the model; print where it went."""
-    config = dataclasses.replace(TrainingConfig(), n_views=args.views, n_trees=args.trees,
-                                 verifier_views=args.verifier_views)
+    config = dataclasses.replace(TrainingConfig(), n_views=args.views, epochs=args.epochs)
     validate(config)
     out = Path(args.out) if args.out else default_model_path()
     start = time.monotonic()
     model = train(args.seed, config)
     out.parent.mkdir(parents=True, exist_ok=True)
-    model.save(out)
-    print(f'wrote {out} ({model.forest.left.size} nodes, {len(model.forest.roots)} trees, '
-          f'{args.views} + {args.verifier_views} views, {time.monotonic() - start:.0f} s)')
+    out.write_bytes(model)
+    print(f'wrote {out} ({len(model)} bytes, {args.views} views, {args.epochs} epochs, '
+          f'{time.monotonic() - start:.0f} s)')
     return 0

@@ -1,474 +1,283 @@
-r"""Training of the fingertip detector: Hough forest and peak verifier (needs scikit-learn;
-the runtime does not).
+r"""Training of the fingertip network (needs PyTorch, imported here only and lazily: the
+runtime runs the ONNX export with ONNX Runtime).
 
-Steps, all deterministic in the seed:
+Steps, all deterministic in the seed (data order, augmentation and initialisation come from
+the seed; PyTorch runs with deterministic algorithms on ``threads`` threads):
 
 1. render ``n_views`` labelled views (:mod:`.data`);
-2. learn the skin table from chroma histograms of hand pixels vs all pixels, and the
-   candidate gate as the ``gate_quantile`` of the skin likelihood of positive pixels;
-3. sample gated pixels per view: positives within ``radius_px`` of a visible tip (at most
-   ``positives_per_tip``), negatives farther than ``radius_px`` from every tip (half on the
-   hand, half elsewhere), pixels near only invisible tips are left out (ambiguous labels);
-4. describe them with a random bank of pixel tests and fit a scikit-learn random forest
-   *regressor* on the targets :math:`(y, y\,d_x/R, y\,d_y/R)`: its squared-error split
-   criterion sums the class impurity and the offset variance of the positives, the two
-   uncertainties a Hough forest alternates between, in one objective;
-5. bootstrap (hard-negative mining): run the first forest on every candidate of the
-   training views, add up to ``hard_negatives_per_view`` negatives it scores highest
-   (tip probability >= ``hard_min_weight``: skin-coloured clutter corners, knuckles, finger
-   bends) and refit on the union;
-6. export the trees to flat arrays and calibrate ``vote_norm`` (median vote peak at visible
-   tips on a subset of the training views);
-7. render ``verifier_views`` views of scenes the forest never saw, run the detector up to
-   its vote peaks (at most ``max_peaks`` above ``peak_floor * vote_norm``), label each peak
-   1 within ``verify_radius_px`` of a visible tip and 0 farther than that from every tip
-   (peaks near only invisible tips are left out), and fit the verifier forest on their
-   :func:`.verifier.peak_features`. Fresh scenes matter: on its own training views the
-   forest's peaks are cleaner than on new images, and the verifier must learn the latter.
-8. fit the context verifier, gradient-boosted trees (scikit-learn's
-   ``HistGradientBoostingClassifier``, early stopping on 10% of the peaks), on the same
-   peaks, their features followed by :func:`.verifier.context_features` of the first
-   verifier's out-of-bag scores (:func:`fit_verifiers`).
+2. per step, a batch of ``batch_size`` views, each randomly flipped left-right and
+   up-down and cropped to ``crop_height`` x ``crop_width`` px (a multiple of the stride,
+   so the cells stay aligned as on full images): with probability ``hand_crop_fraction``
+   around the mean of the tips plus a uniform shift of up to a third of the crop, else
+   anywhere (background negatives);
+3. targets at 1/4 resolution (:func:`targets`): with :math:`c_k = \mathrm{round}(t_k / 4)`
+   the cell of visible tip :math:`t_k`, the heat map
+   :math:`Y = \max_k \exp(-|x - c_k|^2 / 2\sigma^2)` (:math:`\sigma` = ``sigma_cells``), the
+   offset :math:`t_k / 4 - c_k` at :math:`c_k`, and a weight that is 0 within 2 cells (8 px)
+   of an invisible tip and farther from every visible one (curled or hidden tips: the
+   image may or may not show a tip there, so neither answer is penalised);
+4. loss: CenterNet's penalty-reduced focal loss on the tip probability :math:`p`
+   (:math:`-(1 - p)^2 \log p` at the :math:`c_k`, :math:`-(1 - Y)^4 p^2 \log(1 - p)`
+   elsewhere, times the weight) plus the L1 error of the offset at the :math:`c_k`, both
+   divided by the number of visible tips; AdamW, one-cycle learning rate schedule
+   (peak ``learning_rate``), ``epochs`` passes over the views;
+5. export :class:`.network.ExportedNetwork` to ONNX (:func:`export_onnx`).
 
-Forest defaults come from a small ablation (400 training views, one fit, average precision
-of "tip within R" over all candidates of 60 held-out views): 256 tests in a +-16 px window
-0.25; 5 x 5-averaged skin channel 0.29; plus 512 tests 0.32; window +-12 px 0.37, +-9 px
-0.40, +-6 px 0.42. Larger trees (20000 leaves) lowered it (0.23 vs 0.25): the limit is data
-and features, not capacity, so leaves are capped to keep the model file small.
+Experiment log (issue 4; validation: 300 views of seed 1, training views of seed 0;
+P / R = precision / recall of visible tips within 8 px at min_score 0.3 / 0.4 / 0.5;
+times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
 
-Detector-level ablation (400 forest views, detection precision / recall within 8 px on 150
-views of the bench's held-out seed):
-
-- forest only, score = vote height (the previous detector), min_score 0.4 / 0.5 / 0.6:
-  0.75 / 0.76, 0.80 / 0.72, 0.86 / 0.63. Diagnosis on the shipped model (300 views): of
-  344 false positives 183 lay on the hand far from any tip (knuckles, finger bends, the
-  wrist end), 91 on background clutter (skin-coloured stripes, line ends), 64 at 8-16 px
-  from a tip, 6 were duplicates; of 249 missed tips most had a weak peak (score 0.2-0.4
-  or none) and ~90 a peak that lost the top-5 cut to false positives. Missed tips had more
-  hand around them than found ones (tips over the palm or other fingers).
-- changes to the forest that did not help (same protocol, min_score 0.4): extra channels
-  (Sobel luma gradient, 15 x 15 skin average, skin distance transform) 0.76 / 0.76;
-  multi-scale test windows (3, 6, 12 px) 0.76 / 0.72; +-4 px window 0.71 / 0.77; offsets
-  weighted 0.25 in the split criterion 0.71 / 0.77 (same trade-off curves within 0.02).
-- verifier on the forest's peaks (800 fresh views), min_score 0.4: peak height features
-  only 0.81 / 0.69 (no better than the vote height); plus ring profiles 0.87 / 0.72 (0.81 /
-  0.75 at 0.3). Distance to the palm centre, vote-shape sums, 256 extra pixel tests in a
-  +-12 px window, 3x the verifier views, a lower peak floor (0.05, 30 peaks) or gradient
-  boosting instead of a forest all stayed within 0.015.
-- end to end, min_score 0.4, 400 + 800 views: stride 3 0.85 / 0.73, stride 4 0.85 / 0.71.
-  Full recipe (1200 + 1200 views), all 300 bench views, min_score 0.4: 10 trees stride 4
-  0.820 / 0.697 (4.9 ms/frame on the shared 2-core machine); 10 trees stride 3 0.835 /
-  0.721 (5.9 ms; 0.782 / 0.758 at min_score 0.3, where the old detector had 0.71 / 0.77 at
-  0.4); 5 trees stride 3 (the default: half the vote time) 0.819 / 0.700, 3.5 ms
-  (0.766 / 0.742 at min_score 0.3).
-  Ranking the same forest's peaks (10 trees, stride 4) by vote height instead of by the
-  verifier gives 0.05-0.07 lower precision at equal recall on either half of the 300 views.
-- context verifier (issue 4; all 300 bench views, default recipe, min_score 0.4): 0.845 /
-  0.730 vs 0.819 / 0.700 without (0.809 / 0.765 at 0.3); with the neighbour, 40 px and
-  rim-distance context features 0.842 / 0.744 (0.877 / 0.708 at 0.5, 0.905 / 0.662 at
-  0.6), and 0.851 / 0.739 (0.882 / 0.702, 0.907 / 0.655) for the same recipe after
-  last-bit changes of the forward kinematics elsewhere in the tree: tied forest splits
-  flip, so +-0.01 is run-to-run spread, not signal (the same tree gives the same bytes).
-  Twice the verifier views (2400) changed it by less than 0.01. Diagnosis before it: the
-  forest's top-20 peaks hold a peak within 8 px of 92% of visible tips (75% within 4 px),
-  so scoring, not candidates, loses most tips; nearest-peak scores fall with the peak's
-  distance to its tip (>= 0.4 for 90% of peaks within 2 px, 52% at 4-6 px). Things that
-  did not help the verifier (same peaks, min_score 0.4-0.6): 100 trees of 2000 leaves,
-  max_features 0.6, raw ring samples rotated to the finger direction (288 more
-  features); smoothing sigma 2 / NMS 3 px (97% of tips with a peak within 8 px, but
-  precision at equal recall 0.01-0.02 lower); an offset regressor moving each peak
-  towards its tip (peaks within 4 px 75% -> 77%).
-- verifier selection on cached peaks (issue 4; the shipped forest's peaks on 1200 fresh
-  views of seed 0 for training, 400 views of seed 1 for validation; P / R at min_score
-  0.4 / 0.5 / 0.6): the random-forest context verifier 0.807 / 0.734, 0.851 / 0.705,
-  0.883 / 0.658 (0.806 / 0.738, 0.848 / 0.697, 0.890 / 0.650 with another forest seed);
-  a gradient-boosted context verifier 0.815 / 0.744, 0.854 / 0.710, 0.888 / 0.666; plus
-  the shape and edge features of :mod:`.shape` 0.831 / 0.747, 0.862 / 0.729, 0.881 /
-  0.704 (the random forest with them 0.819 / 0.740, 0.853 / 0.695, 0.892 / 0.656).
-  No gain: verifier features at 3 x 3 sub-positions 2 px apart with the highest score
-  taken (0.819 / 0.729 at 0.4), also moving the peak there (0.810 / 0.716), or with
-  positives within 3 px only (0.806 / 0.692); raw 13 x 13 patches of luma, skin and gate
-  mask (boosting 0.782 / 0.747, an MLP 0.817 / 0.709); boosting for both verifiers with
-  2-fold cross-fitted context scores (0.789 / 0.747; averaged with the forests 0.825 /
-  0.751, 0.869 / 0.722, 0.899 / 0.679, four models for ~0.01).
-  Shipped model with the boosted context verifier and the shape terms (``train-detector
-  --seed 0``, 367 s; all 300 bench views, run once): 0.856 / 0.754 at min_score 0.4
-  (was 0.851 / 0.739), 0.903 / 0.708 at 0.6 (0.907 / 0.655), 0.796 / 0.798 at 0.2
-  (0.756 / 0.793); the shape terms cost ~1 ms per frame on the loaded 2-core machine.
+- network size: 17 M MAC 0.7 ms, 34 M MAC (12 / 32 channels, 4 blocks) 1.2-1.3 ms, 50 M MAC
+  (6 blocks, the default) 1.6-1.7 ms; a full 3 x 3 convolution instead of the depthwise one
+  in the stem (56 M MAC) 2.4 ms; ``cv2.dnn`` 2.5-3.5x slower than ONNX Runtime throughout.
+- 12 / 32 channels, 4 blocks, 2000 views, 30 epochs (lr 3e-3): 0.648 / 0.739,
+  0.764 / 0.670, 0.871 / 0.558, still rising with the epochs; 92 % of the visible tips had
+  one of the 20 highest peaks within 8 px, but the median peak height at a tip was only
+  0.57. A 5 x 5 or 7 x 7 NMS instead of 3 x 3 lost recall (0.01-0.05) for no precision.
+  Its offset loss stayed near chance (0.42 after 30 epochs, 0.5 for a zero offset): visible
+  tips outside the crop had their offsets regressed at clipped border cells; fixed (only
+  tips inside the crop count), the default reached 0.36.
+- the default (16 / 32 channels, 6 blocks, 4000 views, 25 epochs, lr 6e-3, one thread;
+  ``train-detector --seed 0``, 28 min on the loaded machine, 48 kB): 0.760 / 0.832,
+  0.844 / 0.773, 0.893 / 0.692 (0.941 / 0.573 at 0.6); on 300 of its own training views
+  0.793 / 0.844, 0.864 / 0.798, 0.927 / 0.701: little overfitting, the training loss was
+  still falling, so longer training or a wider network is the next lever (a wider network
+  costs time: 48 channels would be ~80 M MAC, ~2.6 ms). The forest detector on the same
+  validation views: 0.794 / 0.764, 0.842 / 0.742, 0.866 / 0.718 (0.891 / 0.686 at 0.6),
+  7.3 ms vs 2.7 ms per image measured back to back on the loaded machine.
+  The learning rate 6e-3 rather than 3e-3 was picked on the first epoch's loss only (heat
+  2.83 vs 3.18; two full runs did not fit the shared machine).
+  min_score stays 0.4: on the validation views no threshold reaches precision 0.9 with
+  recall 0.8, and 0.4 balances the two as before. The bench (held-out seed, run once on
+  this model): 0.881 / 0.813 at 0.4, 2.4 ms per image; short of the bar by 0.02 precision.
 """
 from __future__ import annotations
 
-import dataclasses
+import io
 import logging
-from collections.abc import Iterable
+import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from hand_tracker_ros._typing import FloatArray, IntArray, UInt8Array
+from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, UInt8Array
 from hand_tracker_ros.config import param
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.vision.detector.channels import (
-    SKIN_BINS, candidates, chroma_histogram, compute_channels, feature_matrix, gate_image,
-    random_bank, skin_table)
-from hand_tracker_ros.vision.detector.data import LabelledView, labelled_views
-from hand_tracker_ros.vision.detector.detector import (DetectorConfig, FingertipDetector,
-                                                       smooth_votes)
-from hand_tracker_ros.vision.detector.forest import ForestArrays, predict
-from hand_tracker_ros.vision.detector.model import DetectorModel
-from hand_tracker_ros.vision.detector.verifier import context_features
+from hand_tracker_ros.vision.detector.data import labelled_views
+from hand_tracker_ros.vision.detector.model import INPUT_NAME, OUTPUT_NAME, STRIDE
 
 logger = logging.getLogger(__name__)
+
+# Cells within this distance (cells) of a tip count as "near" it for the ignore weight.
+_NEAR_CELLS = 2.0
+_OPSET = 17
 
 
 @dataclass(frozen=True)
 class TrainingConfig:
-    """Fingertip forest training."""
+    """Fingertip network training."""
 
-    n_views: int = param(1200, 'rendered training views', low=1, high=1_000_000)
-    n_trees: int = param(5, 'trees of the forest', low=1, high=200)
-    max_leaves: int = param(3000, 'leaves per tree (bounds the model size)', low=2,
-                            high=1_000_000)
-    min_samples_leaf: int = param(5, 'minimum training samples per leaf', low=1, high=10000)
-    n_features: int = param(512, 'pixel tests in the random bank', low=1, high=4096)
-    max_features: float = param(0.08, 'fraction of the bank tried at each split', low=0.0,
-                                high=1.0)
-    window_px: int = param(6, 'half-size of the test window', unit='px', low=1, high=64)
-    pair_fraction: float = param(0.75, 'fraction of two-pixel tests', low=0.0, high=1.0)
-    radius_px: float = param(7.0, 'a candidate within this distance of a tip is positive',
-                             unit='px', low=1.0, high=30.0)
-    positives_per_tip: int = param(40, 'positive samples per visible tip and view', low=1,
-                                   high=10000)
-    negatives_per_view: int = param(300, 'negative samples per view', low=0, high=100000)
-    gate_quantile: float = param(0.02, 'fraction of positive pixels the candidate gate may '
-                                 'lose', low=0.0, high=0.5)
-    hard_negatives_per_view: int = param(
-        150, 'hard negatives mined per view for the second fit (0: a single fit)', low=0,
-        high=100000)
-    hard_min_weight: float = param(0.2, 'a negative candidate is hard when the first forest '
-                                   'gives it at least this tip probability', low=0.0,
-                                   high=1.0)
-    stride: int = param(3, 'candidate grid step at inference', unit='px', low=1, high=8)
-    calibration_views: int = param(100, 'training views used to calibrate vote_norm', low=1,
-                                   high=100000)
-    verifier_views: int = param(1200, 'views (scenes the forest never saw) whose vote peaks '
-                                'train the verifier', low=1, high=1_000_000)
-    verifier_trees: int = param(20, 'trees of the verifier', low=1, high=200)
-    verifier_max_leaves: int = param(400, 'leaves per verifier tree', low=2, high=1_000_000)
-    verifier_min_samples_leaf: int = param(3, 'minimum verifier samples per leaf', low=1,
-                                           high=10000)
-    verifier_max_features: float = param(0.3, 'fraction of the peak features tried at each '
-                                         'verifier split', low=0.0, high=1.0)
-    context_iterations: int = param(200, 'most boosting iterations (trees) of the context '
-                                    'verifier; early stopping on 10% of its peaks may use '
-                                    'fewer', low=1, high=10000)
-    context_learning_rate: float = param(0.1, 'learning rate of the boosted context verifier',
-                                         low=1e-4, high=1.0)
-    context_max_leaves: int = param(31, 'leaves per context verifier tree', low=2,
-                                    high=100000)
-    verify_radius_px: float = param(8.0, 'a peak within this distance of a visible tip is a '
-                                    'positive verifier sample', unit='px', low=1.0, high=30.0)
-    peak_floor: float = param(0.1, 'vote peaks below peak_floor * vote_norm are not verified',
-                              low=0.0, high=1.0)
-    max_peaks: int = param(20, 'highest vote peaks per image that are verified', low=1,
-                           high=1000)
-    n_jobs: int = param(2, 'scikit-learn worker threads (results do not depend on it)', low=1,
-                        high=64)
+    n_views: int = param(4000, 'rendered training views', low=1, high=1_000_000)
+    epochs: int = param(25, 'passes over the training views', low=1, high=10000)
+    batch_size: int = param(16, 'views per optimisation step', low=1, high=4096)
+    learning_rate: float = param(6e-3, 'peak learning rate of the one-cycle schedule',
+                                 low=1e-6, high=1.0)
+    weight_decay: float = param(1e-4, 'AdamW weight decay', low=0.0, high=1.0)
+    crop_height: int = param(128, 'height of the training crops (multiple of 4)', unit='px',
+                             low=4, high=4096)
+    crop_width: int = param(160, 'width of the training crops (multiple of 4)', unit='px',
+                            low=4, high=4096)
+    hand_crop_fraction: float = param(0.8, 'fraction of crops centred near the hand (the '
+                                      'others anywhere)', low=0.0, high=1.0)
+    sigma_cells: float = param(1.0, 'sigma of the Gaussian target around each visible tip',
+                               unit='cells', low=0.1, high=10.0)
+    stem_channels: int = param(16, 'channels of the stride-2 stem', low=1, high=256)
+    channels: int = param(32, 'channels at 1/4 resolution', low=1, high=512)
+    dilations: tuple = param((1, 2, 4, 8, 1, 2), 'dilation of each residual block')
+    threads: int = param(1, 'PyTorch threads (the model bytes may depend on it)', low=1,
+                         high=64)
 
 
-def _tip_distances(shape_hw: tuple[int, int], view: LabelledView) -> tuple[FloatArray, ...]:
-    """Per-pixel distance to the nearest visible / invisible tip and offset to the visible."""
-    vs, us = np.mgrid[0:shape_hw[0], 0:shape_hw[1]].astype(np.float64)
-    tips = np.nan_to_num(view.tips_uv, nan=-1e6)
-    dist = np.hypot(us[None] - tips[:, 0, None, None], vs[None] - tips[:, 1, None, None])
-    vis = np.where(view.tips_visible[:, None, None], dist, np.inf)
-    hid = np.where(view.tips_visible[:, None, None], np.inf, dist)
-    nearest = np.argmin(vis, axis=0)
-    return (vis.min(axis=0), hid.min(axis=0), tips[nearest, 0] - us, tips[nearest, 1] - vs)
+def targets(uv_px: FloatArray, visible: BoolArray, shape_hw: tuple[int, int],
+            sigma_cells: float) -> tuple[Float32Array, Float32Array, FloatArray, FloatArray]:
+    """Heat map, loss weight and offset targets of a batch (step 3 of the module docstring).
 
-
-def _sample_view(view: LabelledView, channels: UInt8Array, gate: int, cfg: TrainingConfig,
-                 rng: np.random.Generator) -> tuple[IntArray, IntArray, FloatArray]:
-    """Sampled pixels (ys, xs) and their targets (N, 3) of one view."""
-    d_vis, d_hid, dx, dy = _tip_distances(view.hand_mask.shape, view)
-    gated = gate_image(channels) >= gate
-    positive = gated & (d_vis <= cfg.radius_px)
-    negative = gated & (d_vis > cfg.radius_px) & (d_hid > cfg.radius_px)
-    n_pos = cfg.positives_per_tip * int(view.tips_visible.sum())
-    half = cfg.negatives_per_view // 2
-    picks = [_pick(positive, n_pos, rng), _pick(negative & view.hand_mask, half, rng),
-             _pick(negative & ~view.hand_mask, cfg.negatives_per_view - half, rng)]
-    ys = np.concatenate([p[0] for p in picks])
-    xs = np.concatenate([p[1] for p in picks])
-    label = positive[ys, xs].astype(np.float64)
-    targets = np.column_stack([label, label * dx[ys, xs] / cfg.radius_px,
-                               label * dy[ys, xs] / cfg.radius_px])
-    return ys, xs, targets
-
-
-def _pick(mask: np.ndarray, n: int, rng: np.random.Generator) -> tuple[IntArray, IntArray]:
-    ys, xs = np.nonzero(mask)
-    keep = rng.permutation(ys.size)[:n]
-    return ys[np.sort(keep)], xs[np.sort(keep)]
-
-
-def _skin_model(views: list[LabelledView], quantile: float,
-                radius_px: float) -> tuple[UInt8Array, int]:
-    """Skin table and candidate gate learned from the views."""
-    flat = np.full((SKIN_BINS, SKIN_BINS), 128, dtype=np.uint8)
-    hand = np.zeros((SKIN_BINS, SKIN_BINS))
-    total = np.zeros((SKIN_BINS, SKIN_BINS))
-    for view in views:
-        channels = compute_channels(view.image, flat)
-        hand += chroma_histogram(channels, view.hand_mask)
-        total += chroma_histogram(channels, np.ones_like(view.hand_mask))
-    lut = skin_table(hand, total)
-    near = []
-    for view in views:
-        channels = compute_channels(view.image, lut)
-        d_vis = _tip_distances(view.hand_mask.shape, view)[0]
-        near.append(gate_image(channels)[(d_vis <= radius_px) & view.hand_mask])
-    gate = int(np.floor(np.quantile(np.concatenate(near), quantile)))
-    return lut, max(gate, 1)
-
-
-def export_forest(estimators: list) -> ForestArrays:
-    """Concatenate fitted scikit-learn regression trees into :class:`ForestArrays`."""
-    roots, left, right, feature, threshold, value = [], [], [], [], [], []
-    offset = 0
-    for estimator in estimators:
-        tree = estimator.tree_
-        internal = tree.children_left >= 0
-        roots.append(offset)
-        left.append(np.where(internal, tree.children_left + offset, -1))
-        right.append(np.where(internal, tree.children_right + offset, -1))
-        feature.append(np.where(internal, tree.feature, -1))
-        threshold.append(tree.threshold)
-        value.append(tree.value[:, :, 0])
-        offset += tree.node_count
-    return _concatenated(roots, left, right, feature, threshold, value)
-
-
-def _regression_forest(features: np.ndarray, targets: FloatArray, n_trees: int,
-                       max_leaves: int, min_samples_leaf: int, max_features: float, seed: int,
-                       n_jobs: int, oob: bool = False):
-    """A bootstrapped scikit-learn regression forest fitted on (N, F) features.
-
-    With ``oob`` it also holds ``oob_prediction_``: each sample predicted by the trees whose
-    bootstrap left it out (0 for the rare sample every tree drew).
-    """
-    from sklearn.ensemble import RandomForestRegressor
-
-    forest = RandomForestRegressor(
-        n_estimators=n_trees, max_leaf_nodes=max_leaves, min_samples_leaf=min_samples_leaf,
-        max_features=max_features, bootstrap=True, oob_score=oob, random_state=seed,
-        n_jobs=n_jobs)
-    return forest.fit(features.astype(np.float32), targets)
-
-
-def fit_forest(features: np.ndarray, targets: FloatArray, cfg: TrainingConfig,
-               seed: int) -> ForestArrays:
-    """Fit the Hough forest on (N, F) features and (N, 3) targets; export it."""
-    return export_forest(_regression_forest(features, targets, cfg.n_trees, cfg.max_leaves,
-                                            cfg.min_samples_leaf, cfg.max_features, seed,
-                                            cfg.n_jobs).estimators_)
-
-
-def fit_verifiers(samples: list[PeakSamples], cfg: TrainingConfig,
-                  seed: int) -> tuple[ForestArrays, ForestArrays]:
-    """Fit the verifier and the context verifier on the vote peaks of the verifier views.
-
-    The verifier is a regression forest on 0/1 labels: it predicts the leaf frequency of
-    true tips, i.e. the tip probability, and exports to the same flat arrays as the Hough
-    forest (K = 1). The context verifier is a gradient-boosted tree classifier exported to
-    the same arrays; their mean leaf value is its logit (:func:`export_boosted`). The
-    context features of the training peaks come from the first verifier's out-of-bag scores
-    (scores of labelled peaks by trees that never saw them; peaks left out of its training
-    are scored by all trees), so the context verifier learns from the scores the first one
-    gives on new images, not from its fit to its own training set.
+    Parameters
+    ----------
+    uv_px : (B, 5, 2) float64
+        Tip projections in the (cropped) images; NaN allowed for invisible tips.
+    visible : (B, 5) bool
+    shape_hw : (int, int)
+        Map size (h, w) in cells.
+    sigma_cells : float
 
     Returns
     -------
-    verifier, context : ForestArrays
+    heat : (B, h, w) float32
+        Exactly 1 at the cells of visible tips.
+    weight : (B, h, w) float32
+        0 near only invisible tips, else 1.
+    cells : (B, 5, 2) float64
+        Nearest cell (column, row) of each tip (NaN where ``uv_px`` is).
+    offsets : (B, 5, 2) float64
+        ``uv_px / 4 - cells``, in [-0.5, 0.5].
     """
-    features = np.concatenate([s.features for s in samples])
-    labels = np.concatenate([s.labels for s in samples])
-    keep = np.concatenate([s.keep for s in samples])
-    first = _regression_forest(features[keep], labels[keep], cfg.verifier_trees,
-                               cfg.verifier_max_leaves, cfg.verifier_min_samples_leaf,
-                               cfg.verifier_max_features, seed, cfg.n_jobs, oob=True)
-    verifier = export_forest(first.estimators_)
-    score = predict(verifier.nodes(), features.astype(np.float32))[:, 0]
-    score[keep] = first.oob_prediction_
-    split = np.cumsum([s.uv_px.shape[0] for s in samples])[:-1]
-    context = np.concatenate([context_features(s.uv_px, part) for s, part in
-                              zip(samples, np.split(score, split), strict=True)])
-    both = np.concatenate([features, context], axis=1)
-    return verifier, _boosted_context(both[keep], labels[keep], cfg, seed)
+    scaled = uv_px / STRIDE
+    cells = np.rint(scaled)
+    # Far-away stand-ins for NaN tips: no cell is near them.
+    safe = np.nan_to_num(cells, nan=-1e4, posinf=-1e4, neginf=-1e4)
+    h, w = shape_hw
+    d2 = ((np.arange(w)[None, None, None, :] - safe[:, :, 0, None, None]) ** 2
+          + (np.arange(h)[None, None, :, None] - safe[:, :, 1, None, None]) ** 2)
+    vis = visible[:, :, None, None]
+    heat = np.where(vis, np.exp(-d2 / (2.0 * sigma_cells ** 2)), 0.0).max(axis=1)
+    near = d2 <= _NEAR_CELLS ** 2
+    ignored = (~vis & near).any(axis=1) & ~(vis & near).any(axis=1)
+    return (heat.astype(np.float32), np.where(ignored, 0.0, 1.0).astype(np.float32), cells,
+            scaled - cells)
 
 
-def _boosted_context(features: np.ndarray, labels: FloatArray, cfg: TrainingConfig,
-                     seed: int) -> ForestArrays:
-    """Fit the context verifier on (N, F) features and (N,) 0/1 labels; export it."""
-    from sklearn.ensemble import HistGradientBoostingClassifier
+def augment(images: UInt8Array, uv_px: FloatArray, cfg: TrainingConfig,
+            rng: np.random.Generator) -> tuple[UInt8Array, FloatArray]:
+    """Randomly flipped crops of a batch (step 2 of the module docstring).
 
-    boosted = HistGradientBoostingClassifier(
-        learning_rate=cfg.context_learning_rate, max_iter=cfg.context_iterations,
-        max_leaf_nodes=cfg.context_max_leaves, early_stopping=True, validation_fraction=0.1,
-        n_iter_no_change=10, random_state=seed)
-    boosted.fit(features.astype(np.float32), labels.astype(int))
-    return export_boosted(boosted)
-
-
-def export_boosted(boosted) -> ForestArrays:
-    """A fitted binary scikit-learn ``HistGradientBoostingClassifier`` as
-    :class:`ForestArrays` (K = 1) whose :func:`.forest.predict` value is its logit.
-
-    ``predict`` averages the T trees, so leaf values are stored times T, and the baseline
-    logit is added to every node of the first tree. Splits send ``x <= threshold`` left,
-    as in scikit-learn; the features must hold no NaN (missing values are not exported).
-    """
-    trees = [predictors[0].nodes for predictors in boosted._predictors]
-    roots, left, right, feature, threshold, value = [], [], [], [], [], []
-    offset = 0
-    for t, nodes in enumerate(trees):
-        internal = nodes['is_leaf'] == 0
-        roots.append(offset)
-        left.append(np.where(internal, nodes['left'].astype(np.int64) + offset, -1))
-        right.append(np.where(internal, nodes['right'].astype(np.int64) + offset, -1))
-        feature.append(np.where(internal, nodes['feature_idx'], -1))
-        threshold.append(nodes['num_threshold'])
-        leaf = nodes['value'] * len(trees)
-        value.append(leaf + len(trees) * float(boosted._baseline_prediction.ravel()[0])
-                     if t == 0 else leaf)
-        offset += nodes.size
-    return _concatenated(roots, left, right, feature, threshold,
-                         [v[:, None] for v in value])
-
-
-def _concatenated(roots: list[int], left: list[np.ndarray], right: list[np.ndarray],
-                  feature: list[np.ndarray], threshold: list[np.ndarray],
-                  value: list[np.ndarray]) -> ForestArrays:
-    """Per-tree node arrays (already offset to global node ids) as one :class:`ForestArrays`."""
-    return ForestArrays(roots=np.asarray(roots, dtype=np.int32),
-                        left=np.concatenate(left).astype(np.int32),
-                        right=np.concatenate(right).astype(np.int32),
-                        feature=np.concatenate(feature).astype(np.int32),
-                        threshold=np.concatenate(threshold).astype(np.float64),
-                        value=np.concatenate(value).astype(np.float64))
-
-
-def _accept_all() -> ForestArrays:
-    """A one-leaf verifier of probability 1: the detector of a model still in training."""
-    return ForestArrays(roots=np.zeros(1, np.int32), left=np.full(1, -1, np.int32),
-                        right=np.full(1, -1, np.int32), feature=np.full(1, -1, np.int32),
-                        threshold=np.zeros(1), value=np.ones((1, 1)))
-
-
-@dataclass(frozen=True, eq=False)
-class PeakSamples:
-    """The vote peaks of one verifier view.
-
-    Attributes
+    Parameters
     ----------
-    uv_px : (N, 2) float64
-        Peak positions.
-    features : (N, verifier.N_FEATURES) float32
-    labels : (N,) float64
-        1 within ``verify_radius_px`` of a visible tip, else 0.
-    keep : (N,) bool
-        Labelled peaks: false for peaks near only invisible tips (the evaluation counts
-        them neither way, so no verifier trains on them; they still give context).
+    images : (B, H, W, 3) uint8
+    uv_px : (B, 5, 2) float64
+    cfg : TrainingConfig
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    crops : (B, crop_height, crop_width, 3) uint8
+    uv_px : (B, 5, 2) float64
+        The tips in the crops' pixel coordinates.
     """
-
-    uv_px: FloatArray
-    features: np.ndarray
-    labels: FloatArray
-    keep: np.ndarray
-
-
-def _verifier_samples(detector: FingertipDetector, views: Iterable[LabelledView],
-                      radius_px: float) -> list[PeakSamples]:
-    """The vote peaks of ``views`` with their features and labels, one entry per view."""
-    samples = []
-    for view in views:
-        uv, features = detector.peaks(view.image)
-        tips = np.nan_to_num(view.tips_uv, nan=-1e9)
-        near = np.linalg.norm(uv[:, None] - tips[None], axis=2) <= radius_px   # (N, 5)
-        positive = (near & view.tips_visible).any(axis=1)
-        samples.append(PeakSamples(uv, features, positive.astype(np.float64),
-                                   positive | ~near.any(axis=1)))
-    return samples
-
-
-def _hard_negatives(forest: ForestArrays, bank: np.ndarray, lut: UInt8Array, gate: int,
-                    views: list[LabelledView], cfg: TrainingConfig
-                    ) -> tuple[np.ndarray, FloatArray]:
-    """Features (N, F) int16 and zero targets (N, 3) of the hardest negative candidates."""
-    nodes = forest.nodes()
-    blocks = []
-    for view in views:
-        channels = compute_channels(view.image, lut)
-        ys, xs = candidates(gate_image(channels) >= gate, cfg.stride)
-        d_vis, d_hid = (d[ys, xs] for d in _tip_distances(view.hand_mask.shape, view)[:2])
-        keep = (d_vis > cfg.radius_px) & (d_hid > cfg.radius_px)
-        feats = feature_matrix(channels, bank, ys[keep], xs[keep])
-        weight = predict(nodes, feats)[:, 0]
-        order = np.argsort(-weight, kind='stable')[:cfg.hard_negatives_per_view]
-        blocks.append(feats[order[weight[order] >= cfg.hard_min_weight]])
-    features = np.concatenate(blocks)
-    return features, np.zeros((len(features), 3))
+    height, width = images.shape[1:3]
+    ch, cw = cfg.crop_height, cfg.crop_width
+    crops = np.empty((len(images), ch, cw, 3), np.uint8)
+    uv = uv_px.copy()
+    for i, image in enumerate(images):
+        if rng.random() < 0.5:  # pixel centres are integers: u -> W - 1 - u
+            image, uv[i, :, 0] = image[:, ::-1], width - 1 - uv[i, :, 0]
+        if rng.random() < 0.5:
+            image, uv[i, :, 1] = image[::-1], height - 1 - uv[i, :, 1]
+        finite = np.all(np.isfinite(uv[i]), axis=1)
+        if rng.random() < cfg.hand_crop_fraction and finite.any():
+            cu, cv = uv[i, finite].mean(axis=0)
+            cu += rng.uniform(-cw / 3.0, cw / 3.0)
+            cv += rng.uniform(-ch / 3.0, ch / 3.0)
+        else:
+            cu, cv = rng.uniform(0.0, width), rng.uniform(0.0, height)
+        x0 = int(np.clip((cu - cw / 2.0) // STRIDE * STRIDE, 0, width - cw))
+        y0 = int(np.clip((cv - ch / 2.0) // STRIDE * STRIDE, 0, height - ch))
+        crops[i] = image[y0:y0 + ch, x0:x0 + cw]
+        uv[i] -= (x0, y0)
+    return crops, uv
 
 
-def _vote_norm(model: DetectorModel, views: list[LabelledView]) -> float:
-    """Median smoothed vote peak within radius_px of each visible tip."""
-    detector = FingertipDetector(model, DetectorConfig())
-    sigma = DetectorConfig().smoothing_sigma_px
-    peaks = []
-    for view in views:
-        smoothed = smooth_votes(detector.votes(view.image), sigma)
-        vs, us = np.mgrid[0:smoothed.shape[0], 0:smoothed.shape[1]]
-        for u, v in view.tips_uv[view.tips_visible]:
-            near = np.hypot(us - u, vs - v) <= model.radius_px
-            peaks.append(float(smoothed[near].max(initial=0.0)))
-    return float(np.median(peaks)) if peaks and np.median(peaks) > 0 else 1.0
+def _losses(torch: Any, maps: Any, heat: Float32Array, weight: Float32Array,
+            cells: FloatArray, offsets: FloatArray, inside: BoolArray) -> tuple[Any, Any]:
+    """Focal heat-map loss and offset L1 loss (step 4) of maps (B, 3, h, w)."""
+    p = maps[:, 0].clamp(1e-4, 1.0 - 1e-4)
+    heat_t, weight_t = torch.from_numpy(heat), torch.from_numpy(weight)
+    centre = heat_t == 1.0
+    positive = -((1.0 - p) ** 2 * torch.log(p))[centre].sum()
+    negative = -(weight_t * (1.0 - heat_t) ** 4 * p ** 2 * torch.log(1.0 - p))[~centre].sum()
+    b, k = np.nonzero(inside)
+    n = max(b.size, 1)
+    cols, rows = cells[b, k, 0].astype(np.int64), cells[b, k, 1].astype(np.int64)
+    predicted = maps[torch.from_numpy(b), 1:, torch.from_numpy(rows), torch.from_numpy(cols)]
+    offset = (predicted - torch.from_numpy(offsets[b, k]).float()).abs().sum()
+    return (positive + negative) / n, offset / n
+
+
+def export_onnx(network: Any) -> bytes:
+    """ONNX bytes of :class:`.network.ExportedNetwork` ``network`` (in eval mode), with
+    dynamic image height and width."""
+    import torch
+
+    buffer = io.BytesIO()
+    dummy = torch.zeros((1, 240, 320, 3), dtype=torch.uint8)
+    # The TorchScript exporter (deprecated, hence the silenced warnings): the torch.export
+    # one needs onnxscript, one more dependency for a graph without control flow that the
+    # old exporter handles (tests compare the export with PyTorch's output).
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore', DeprecationWarning)
+        torch.onnx.export(network.eval(), (dummy,), buffer, input_names=[INPUT_NAME],
+                          output_names=[OUTPUT_NAME], opset_version=_OPSET, dynamo=False,
+                          dynamic_axes={INPUT_NAME: {1: 'height', 2: 'width'},
+                                        OUTPUT_NAME: {2: 'rows', 3: 'cols'}})
+    return buffer.getvalue()
 
 
 def train(seed: int, cfg: TrainingConfig = TrainingConfig(),
-          model: HandModel | None = None) -> DetectorModel:
-    """Render, sample, fit and calibrate a detector model (deterministic in ``seed``)."""
+          model: HandModel | None = None) -> bytes:
+    """Train the network on ``cfg.n_views`` views of ``seed`` (module docstring).
+
+    Returns
+    -------
+    bytes
+        The ONNX model (:mod:`.model`); the same seed and config give the same bytes.
+    """
+    import torch
+
+    from hand_tracker_ros.vision.detector.network import ExportedNetwork, TipNetwork
+
+    if cfg.crop_height % STRIDE or cfg.crop_width % STRIDE:
+        msg = f'crop size {cfg.crop_height} x {cfg.crop_width} is not a multiple of {STRIDE}'
+        raise ValueError(msg)
     views = list(labelled_views(cfg.n_views, seed, model=model))
-    lut, gate = _skin_model(views, cfg.gate_quantile, cfg.radius_px)
-    rng = np.random.default_rng([seed, 1])
-    bank = random_bank(cfg.n_features, cfg.window_px, cfg.pair_fraction, rng)
-    blocks, targets = [], []
-    for view in views:
-        channels = compute_channels(view.image, lut)
-        ys, xs, t = _sample_view(view, channels, gate, cfg, rng)
-        blocks.append(feature_matrix(channels, bank, ys, xs))
-        targets.append(t)
-    features, target = np.concatenate(blocks), np.concatenate(targets)
-    logger.info('training on %d samples (%d positive) from %d views, gate %d',
-                len(target), int(target[:, 0].sum()), len(views), gate)
-    forest = fit_forest(features, target, cfg, seed)
-    if cfg.hard_negatives_per_view > 0:
-        hard, zeros = _hard_negatives(forest, bank, lut, gate, views, cfg)
-        logger.info('refitting with %d hard negatives', len(hard))
-        forest = fit_forest(np.concatenate([features, hard]), np.concatenate([target, zeros]),
-                            cfg, seed)
-    provisional = DetectorModel(bank=bank, forest=forest, verifier=_accept_all(),
-                                context=_accept_all(), skin_lut=lut,
-                                stride=cfg.stride, gate=gate, radius_px=cfg.radius_px,
-                                vote_norm=1.0, peak_floor=cfg.peak_floor,
-                                max_peaks=cfg.max_peaks, seed=seed)
-    norm = _vote_norm(provisional, views[:cfg.calibration_views])
-    provisional = dataclasses.replace(provisional, vote_norm=norm)
-    del views  # free the forest views before rendering the verifier views
-    # Scene numbers from n_views on were never rendered for the forest (a scene has at
-    # least one view), so the verifier learns from the forest's held-out behaviour.
-    fresh = labelled_views(cfg.verifier_views, seed, model=model, first_scene=cfg.n_views)
-    samples = _verifier_samples(FingertipDetector(provisional), fresh, cfg.verify_radius_px)
-    logger.info('verifiers on %d peaks (%d true tips)', sum(int(s.keep.sum()) for s in samples),
-                sum(int(s.labels.sum()) for s in samples))
-    verifier, context = fit_verifiers(samples, cfg, seed)
-    return dataclasses.replace(provisional, verifier=verifier, context=context)
+    images = np.stack([v.image for v in views])
+    if images.shape[1] < cfg.crop_height or images.shape[2] < cfg.crop_width:
+        msg = f'crop {cfg.crop_height} x {cfg.crop_width} exceeds the views {images.shape[1:3]}'
+        raise ValueError(msg)
+    tips_uv = np.stack([v.tips_uv for v in views])
+    tips_visible = np.stack([v.tips_visible for v in views])
+    del views
+
+    threads, deterministic = torch.get_num_threads(), torch.are_deterministic_algorithms_enabled()
+    torch.set_num_threads(cfg.threads)
+    torch.use_deterministic_algorithms(True)
+    try:
+        torch.manual_seed(seed)
+        network = ExportedNetwork(TipNetwork(cfg.stem_channels, cfg.channels,
+                                             tuple(int(d) for d in cfg.dilations)))
+        steps = max(len(images) // cfg.batch_size, 1)
+        optimizer = torch.optim.AdamW(network.parameters(), lr=cfg.learning_rate,
+                                      weight_decay=cfg.weight_decay)
+        schedule = torch.optim.lr_scheduler.OneCycleLR(
+            optimizer, max_lr=cfg.learning_rate, total_steps=steps * cfg.epochs,
+            pct_start=0.1)
+        rng = np.random.default_rng(seed)
+        map_hw = (cfg.crop_height // STRIDE, cfg.crop_width // STRIDE)
+        network.train()
+        for epoch in range(cfg.epochs):
+            order = rng.permutation(len(images))
+            total = np.zeros(2)
+            for step in range(steps):
+                batch = np.sort(order[step * cfg.batch_size:(step + 1) * cfg.batch_size])
+                crops, uv = augment(images[batch], tips_uv[batch], cfg, rng)
+                heat, weight, cells, offsets = targets(uv, tips_visible[batch], map_hw,
+                                                       cfg.sigma_cells)
+                # Visible tips outside the crop shape the heat map near its border but have
+                # no centre cell to be counted or to regress an offset at.
+                inside = tips_visible[batch] & np.all(
+                    (cells >= 0) & (cells < np.array(map_hw[::-1])), axis=2)
+                maps = network(torch.from_numpy(crops))
+                heat_loss, offset_loss = _losses(torch, maps, heat, weight, cells, offsets,
+                                                 inside)
+                optimizer.zero_grad()
+                (heat_loss + offset_loss).backward()
+                optimizer.step()
+                schedule.step()
+                total += (heat_loss.item(), offset_loss.item())
+            logger.info('epoch %d: heat loss %.3f, offset loss %.3f', epoch,
+                        *(total / steps))
+        return export_onnx(network)
+    finally:
+        torch.set_num_threads(threads)
+        torch.use_deterministic_algorithms(deterministic)
+
