@@ -98,6 +98,10 @@ class PlayerNodeConfig:
         'a subscriber; 0 = do not wait', unit='s', low=0.0)
     wait_topics: tuple[str, ...] = param((), 'output topics to wait for; empty = every '
                                          'played topic')
+    wait_subscriber_count: int = param(1, 'subscribers every topic of `wait_topics` must have '
+                                       '(DDS matches each publisher-subscriber pair on its own, '
+                                       'so one subscriber says nothing of a second)', low=1,
+                                       high=1000)
     qos_reliability: str = param('bag', "publisher reliability: 'bag' = as recorded "
                                  '(best effort if every recorded publisher was)',
                                  choices=('bag', 'reliable', 'best_effort'))

@@ -38,6 +38,8 @@ def add_parser(sub: Any) -> None:
                         help='wait up to S s for subscribers before playing (0: no wait)')
     parser.add_argument('--wait-topics', nargs='+', default=[], metavar='TOPIC',
                         help='output topics to wait for (default: every played topic)')
+    parser.add_argument('--wait-subscriber-count', type=int, default=1, metavar='N',
+                        help='subscribers each waited-for topic must have (default: 1)')
     parser.add_argument('--qos-reliability', default='bag',
                         choices=('bag', 'reliable', 'best_effort'),
                         help='publisher reliability (default: as recorded)')
@@ -52,6 +54,7 @@ def overrides(args: argparse.Namespace) -> dict[str, Any]:
         'playback.duration_s': args.playback_duration, 'playback.delay_s': args.delay,
         'playback.exclude_regex': args.exclude_regex, 'publish_clock': not args.no_clock,
         'start_paused': args.start_paused, 'wait_for_subscribers_s': args.wait_for_subscribers,
+        'wait_subscriber_count': args.wait_subscriber_count,
         'qos_reliability': args.qos_reliability,
         'playback.topics': tuple(args.topics), 'playback.remap': tuple(args.remap),
         'wait_topics': tuple(args.wait_topics)}

@@ -25,6 +25,7 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.bags.convert import HandStateValues, hand_state_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.errors import HandTrackerError
+from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
 from hand_tracker_ros.launcher import ProcessGroup, ProcessSpec
@@ -69,10 +70,12 @@ def graph_specs(bag: Path, rig_path: Path, cameras: list[str], out: Path, rate: 
         ProcessSpec('recorder', 'recorder', (*sim, '-p', f'output:={out}',
                                              '-p', f'topics:={_list(list(OUTPUT_TOPICS))}')),
     ]
+    # Both `features` and `salient_points` subscribe to every camera's images.
     image_topics = [f'/{c}/image_raw' for c in cameras]
     player = ProcessSpec('player', 'player', (
         '-p', f'bag:={bag}', '-p', f'playback.rate:={rate}', '-p', 'publish_clock:=true',
-        '-p', f'wait_topics:={_list(image_topics)}', '-p', 'wait_for_subscribers_s:=60.0'))
+        '-p', f'wait_topics:={_list(image_topics)}', '-p', 'wait_subscriber_count:=2',
+        '-p', 'wait_for_subscribers_s:=60.0'))
     return nodes, player
 
 
@@ -117,7 +120,7 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
     finally:
         codes = graph.stop()
     LOG.info('graph exit codes: %s', codes)
-    return _score(recorded, truth, rig)
+    return score_recording(recorded, truth, rig)
 
 
 def _wait_until_connected(cameras: list[str], timeout_s: float) -> None:
@@ -132,12 +135,17 @@ def _wait_until_connected(cameras: list[str], timeout_s: float) -> None:
         raise HandTrackerError(msg)
 
 
-def _score(recorded: Path, truth: dict, rig) -> ReplayOutcome:  # noqa: ANN001
+def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: CameraRig
+                    ) -> ReplayOutcome:
+    """Score the ``/hand_state`` messages of the bag ``recorded`` against ``truth`` (by stamp)."""
     with BagReader(recorded) as reader:
         topics = reader.topics
-        states = {stamp: hand_state_from_msg(msg)
-                  for _, _, stamp, msg in reader.decoded(topics=['/hand_state'])
-                  } if '/hand_state' in topics else {}
+        # By header stamp (the input set's), not by the bag's receive time: with sim time
+        # that is the newest /clock, one frame later when the tracker needed longer than the
+        # player's frame period.
+        decoded = (hand_state_from_msg(msg) for _, _, _, msg
+                   in reader.decoded(topics=['/hand_state'])) if '/hand_state' in topics else ()
+        states = {state.stamp_ns: state for state in decoded}
         n_joint_states = topics['/joint_states'].count if '/joint_states' in topics else 0
     # The first set is where both paths are initialised (from ground truth): not scored.
     common = sorted(set(states) & set(truth) - {min(truth, default=None)})

@@ -7,9 +7,9 @@ its bag topic, or the remapped one, at the bag's timing scaled by ``playback.rat
 each message (``ros2 bag play --clock-topics-all``), so nodes with ``use_sim_time`` follow the
 bag.
 
-Start and pause. Playback starts once every topic of ``wait_topics`` has a subscriber (or
-after ``wait_for_subscribers_s``), so the first messages of a short bag are not published
-before anyone listens. ``std_srvs`` is not on PyPI, so pausing is a topic instead of the
+Start and pause. Playback starts once every topic of ``wait_topics`` has
+``wait_subscriber_count`` subscribers (or after ``wait_for_subscribers_s``), so the first
+messages of a short bag are not published before anyone listens. ``std_srvs`` is not on PyPI, so pausing is a topic instead of the
 rosbag2 ``~/pause``/``~/resume`` services: ``std_msgs/Bool`` on ``~/pause`` pauses (``true``)
 or resumes (``false``); with ``start_paused`` playback waits for the first ``false``. Time
 spent paused shifts the rest of the schedule.
@@ -154,15 +154,17 @@ class PlayerNode(Node):
         by_name = {p.topic_name: p for p in self._outputs.values()}
         if unknown := sorted(wanted - set(by_name)):
             self.get_logger().warning(f'`wait_topics` not played: {", ".join(unknown)}')
+        count = self.config.wait_subscriber_count
         deadline = time.monotonic() + timeout_s
         while not self._stop.is_set():
             missing = sorted(t for t in wanted & set(by_name)
-                             if by_name[t].get_subscription_count() == 0)
+                             if by_name[t].get_subscription_count() < count)
             if not missing:
                 return
             if time.monotonic() >= deadline:
                 self.get_logger().warning(
-                    f'no subscriber after {timeout_s} s on: {", ".join(missing)}; playing anyway')
+                    f'fewer than {count} subscribers after {timeout_s} s on: '
+                    f'{", ".join(missing)}; playing anyway')
                 return
             self._stop.wait(_POLL_S)
 

@@ -110,6 +110,24 @@ def test_player_rate_filter_and_remap(node_process, ros, synth_bag):
     assert 0.75 < times[-1] - times[0] < 1.6
 
 
+def test_player_waits_for_the_asked_number_of_subscribers(node_process, ros, synth_bag):
+    """With ``wait_subscriber_count:=2`` one subscriber is not enough to start playback."""
+    node, spin_until = ros
+    first = listen(node, {'/cam0/image_raw': 'sensor_msgs/msg/Image'})
+    player = node_process('player', '-p', f'bag:={synth_bag}',
+                          '-p', 'wait_topics:=[/cam0/image_raw]', '-p', 'wait_subscriber_count:=2',
+                          '-p', 'wait_for_subscribers_s:=60.0')
+    assert spin_until(lambda: 'wait_subscriber_count = 2' in player.output(), 30.0), \
+        player.output()
+    spin_until(lambda: False, 2.0)
+    assert not first['/cam0/image_raw'] and player.proc.poll() is None
+    second = listen(node, {'/cam0/image_raw': 'sensor_msgs/msg/Image'})
+    assert spin_until(lambda: player.proc.poll() is not None, 30.0), player.output()
+    spin_until(lambda: False, 0.5)
+    assert player.proc.returncode == 0, player.output()
+    assert len(first['/cam0/image_raw']) == len(second['/cam0/image_raw']) == N_FRAMES
+
+
 def run_player(*ros_args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([str(executable('player')), '--ros-args', *ros_args],
                           capture_output=True, text=True, timeout=60)
@@ -174,7 +192,8 @@ def test_player_cli_copies_options_into_parameters():
         'bag': 'b', 'playback.rate': 2.0, 'playback.loop': True,
         'playback.start_offset_s': 0.0, 'playback.duration_s': -1.0,
         'playback.delay_s': 0.0, 'playback.exclude_regex': '', 'publish_clock': False,
-        'start_paused': False, 'wait_for_subscribers_s': 5.0, 'qos_reliability': 'bag',
+        'start_paused': False, 'wait_for_subscribers_s': 5.0, 'wait_subscriber_count': 1,
+        'qos_reliability': 'bag',
         'playback.topics': ('/a',), 'playback.remap': ('/a:=/b',)}
 
 
