@@ -3,13 +3,19 @@
 Usage: python bench/bench_tracker.py [--frames N] [--pso]
 Stages: features (edges, mask, flow; 2-thread pool), detection, views (render + contours of the
 model in every camera, per round), correspondences per term (collision = triangle-pair search),
-LM solves. Medians over the frames after a warm-up frame.
+LM solves; medians over the frames after a warm-up frame, each set observed and fitted in turn
+(``OfflinePipeline.step``: ``total`` is the latency of one set). Then the wall time per frame of
+``OfflinePipeline.run``, which observes set k+1 while fitting set k (what ``hand-tracker track``
+does, and what the node graph does across processes): the same estimates, checked here.
 """
 from __future__ import annotations
 
 import argparse
 import statistics
+import time
 from collections import defaultdict
+
+import numpy as np
 
 from hand_tracker_ros.config import from_mapping
 from hand_tracker_ros.model.hand import HandModel
@@ -23,12 +29,16 @@ def bench(width: int, height: int, frames: int, overrides: dict) -> None:
     seq = SyntheticSequence(SynthConfig(motion='random', n_frames=frames + 2, width=width,
                                         height=height), model)
     shots = [seq.frame(k) for k in range(frames + 2)]
-    pipe = OfflinePipeline(model, seq.rig, from_mapping(PipelineConfig, overrides))
+    sets = [FrameSet(shot.stamp_ns, shot.images) for shot in shots]
+    config = from_mapping(PipelineConfig, overrides)
+    pipe = OfflinePipeline(model, seq.rig, config)
     pipe.tracker.reset(shots[0].theta)
-    pipe.step(FrameSet(shots[1].stamp_ns, shots[1].images))  # warm-up (numba caches, pools)
+    pipe.step(sets[1])  # warm-up (numba caches, pools)
     stages = defaultdict(list)
-    for shot in shots[2:]:
-        result = pipe.step(FrameSet(shot.stamp_ns, shot.images))
+    serial = []
+    for frame_set in sets[2:]:
+        result = pipe.step(frame_set)
+        serial.append(result.theta)
         for key, seconds in result.timings_s.items():
             stages[key].append(1e3 * seconds)
     pipe.close()
@@ -38,6 +48,21 @@ def bench(width: int, height: int, frames: int, overrides: dict) -> None:
         values = stages[key]
         print(f'  {key:24s} {statistics.median(values):7.1f}   (min {min(values):.1f}, '
               f'max {max(values):.1f})')
+
+    pipe = OfflinePipeline(model, seq.rig, config)
+    pipe.tracker.reset(shots[0].theta)
+    pipe.step(sets[1])
+    walls, pipelined = [], []
+    start = time.perf_counter()
+    for result in pipe.run(sets[2:]):
+        now = time.perf_counter()
+        walls.append(1e3 * (now - start))
+        pipelined.append(result.theta)
+        start = now
+    pipe.close()
+    same = np.array_equal(np.array(serial), np.array(pipelined))
+    print(f'  {"pipelined wall":24s} {statistics.median(walls):7.1f}   (min {min(walls):.1f}, '
+          f'max {max(walls):.1f}; estimates {"identical" if same else "DIFFER"})')
 
 
 def main() -> None:

@@ -19,7 +19,7 @@ from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
-from hand_tracker_ros.pipeline.frames import frame_sets, ground_truth, load_rig
+from hand_tracker_ros.pipeline.frames import FrameSet, frame_sets, ground_truth, load_rig
 from hand_tracker_ros.pipeline.offline import Detector, OfflinePipeline, PipelineConfig
 from hand_tracker_ros.tracking.tracker import TrackResult, TrackStatus
 
@@ -57,15 +57,17 @@ def track_bag(bag: str | Path, *, rig_path: str | Path | None = None,
     truth = ground_truth(bag)
     model = HandModel.build()
     pipeline = OfflinePipeline(model, rig, config, detector)
+
+    def initialise(frames: FrameSet) -> None:
+        if init_from_ground_truth and not pipeline.tracker.initialized:
+            if frames.stamp_ns not in truth:
+                msg = f'{bag}: no ground truth at {frames.stamp_ns} to initialise from'
+                raise ValueError(msg)
+            pipeline.tracker.reset(np.asarray(truth[frames.stamp_ns].joint_positions))
+
     try:
-        for frames in frame_sets(bag, rig):
-            gt = truth.get(frames.stamp_ns)
-            if init_from_ground_truth and not pipeline.tracker.initialized:
-                if gt is None:
-                    msg = f'{bag}: no ground truth at {frames.stamp_ns} to initialise from'
-                    raise ValueError(msg)
-                pipeline.tracker.reset(np.asarray(gt.joint_positions))
-            result = pipeline.step(frames)
+        for result in pipeline.run(frame_sets(bag, rig), before_fit=initialise):
+            gt = truth.get(result.stamp_ns)
             yield TrackedFrame(result, None if gt is None else gt.keypoints_m)
     finally:
         pipeline.close()

@@ -40,6 +40,30 @@ def test_tracker_follows_a_synthetic_grasp(hand_model, grasp) -> None:
     assert set(results[-1].energy_costs) >= {'edges', 'silhouette', 'collision'}
 
 
+def test_pipelined_run_gives_the_estimates_of_step_by_step(hand_model, grasp) -> None:
+    """``run`` observes set k+1 while fitting set k: same estimates (edge noise included, whose
+    seed follows the order of observation), ``before_fit`` right before each fit."""
+    sequence, frames = grasp
+    config = from_mapping(PipelineConfig, {'edge_noise.enabled': True})
+    sets = [FrameSet(f.stamp_ns, f.images) for f in frames]
+    thetas, events = {}, []
+    for mode in ('step', 'run'):
+        pipeline = OfflinePipeline(hand_model, sequence.rig, config)
+        pipeline.tracker.reset(frames[0].theta)
+        pipeline.observe(sets[0])
+        if mode == 'step':
+            results = [pipeline.step(s) for s in sets[1:]]
+        else:
+            results = []
+            for result in pipeline.run(sets[1:], lambda s: events.append(('fit', s.stamp_ns))):
+                events.append(('result', result.stamp_ns))
+                results.append(result)
+        pipeline.close()
+        thetas[mode] = np.array([r.theta for r in results])
+    np.testing.assert_array_equal(thetas['run'], thetas['step'])
+    assert events == [(kind, f.stamp_ns) for f in frames[1:] for kind in ('fit', 'result')]
+
+
 def test_perturbed_start_converges(hand_model, grasp) -> None:
     sequence, frames = grasp
     pipeline = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())
