@@ -25,8 +25,8 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.bags.convert import HandStateValues, hand_state_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.errors import HandTrackerError
-from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
+from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
 from hand_tracker_ros.launcher import ProcessGroup, ProcessSpec
 from hand_tracker_ros.model.hand import HandModel
@@ -141,8 +141,8 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
     with BagReader(recorded) as reader:
         topics = reader.topics
         # By header stamp (the input set's), not by the bag's receive time: with sim time
-        # that is the newest /clock, one frame later when the tracker needed longer than the
-        # player's frame period.
+        # that is the newest /clock the recorder got, 0 before it matched the player's /clock
+        # and one frame late when the tracker needed longer than the player's frame period.
         decoded = (hand_state_from_msg(msg) for _, _, _, msg
                    in reader.decoded(topics=['/hand_state'])) if '/hand_state' in topics else ()
         states = {state.stamp_ns: state for state in decoded}
