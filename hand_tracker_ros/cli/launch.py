@@ -2,10 +2,12 @@
 
 Without ``--bag`` the five nodes run until Ctrl-C/SIGTERM (the player idles, the recorder
 records nothing): live cameras publish ``<cam>/image_raw`` and ``<cam>/camera_info``. With
-``--bag`` the player plays it (``/clock`` on, every node on sim time), the recorder writes the
-tracker's outputs to ``--record`` (default ``<bag>_tracked``), and the graph stops when the bag
-ends. Every process gets the shipped Fast DDS profile and its ``config/<node>.yaml``, then the
-user's ``--params`` file, then the rig, camera and bag settings.
+``--bag`` the player plays it (``/clock`` on, every node on sim time; with a rig, playback
+starts once ``features`` and ``salient_points`` listen to every camera, or after 60 s), the
+recorder writes the tracker's outputs to ``--record`` (default ``<bag>_tracked``), and the
+graph stops when the bag ends. Every process gets the shipped Fast DDS profile and its
+``config/<node>.yaml``, then the user's ``--params`` file, then the rig, camera and bag
+settings.
 """
 from __future__ import annotations
 
@@ -30,15 +32,20 @@ def graph_specs(params_file: str | None = None, *, rig: str | None = None,
                 bag: str | None = None, record: str | None = None) -> list[ProcessSpec]:
     """One process per node: its ``config/<node>.yaml``, the user's file, then overrides."""
     extra: dict[str, list[str]] = {name: [] for name in NODES}
+    names = list(CameraRig.from_yaml(rig).names) if rig else []
     if rig:
-        cameras = _list(list(CameraRig.from_yaml(rig).names))
         for name in ('features', 'salient_points', 'tracker'):
-            extra[name] += ['-p', f'cameras:={cameras}']
+            extra[name] += ['-p', f'cameras:={_list(names)}']
         extra['tracker'] += ['-p', f'rig_file:={Path(rig).resolve()}']
     if bag:
         for name in NODES:
             extra[name] += ['-p', 'use_sim_time:=true']
         extra['player'] += ['-p', f'bag:={bag}']
+        if names:
+            # Both `features` and `salient_points` subscribe to every camera's images.
+            images = _list([f'/{c}/image_raw' for c in names])
+            extra['player'] += ['-p', f'wait_topics:={images}', '-p', 'wait_subscriber_count:=2',
+                                '-p', 'wait_for_subscribers_s:=60.0']
         extra['recorder'] += ['-p', f'output:={record}', '-p', f'topics:={_list(list(RECORDED))}']
     user = ['--params-file', params_file] if params_file else []
     return [ProcessSpec(name=name, executable=name,

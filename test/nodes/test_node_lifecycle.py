@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import signal
 import subprocess
+from pathlib import Path
 
 import pytest
 
@@ -11,6 +12,17 @@ from hand_tracker_ros.cli.launch import NODES, graph_specs
 from hand_tracker_ros.launcher import ProcessGroup
 
 pytestmark = pytest.mark.ros
+
+RIG = Path(__file__).resolve().parents[2] / 'config' / 'rig_example.yaml'
+
+
+def test_bag_playback_waits_for_both_image_consumers_of_every_rig_camera() -> None:
+    player = {s.name: s for s in graph_specs(rig=str(RIG), bag='demo_bag')}['player'].ros_args
+    images = ','.join(f'/cam{i}/image_raw' for i in range(4))
+    assert f'wait_topics:=[{images}]' in player
+    assert 'wait_subscriber_count:=2' in player
+    without_rig = {s.name: s for s in graph_specs(bag='demo_bag')}['player'].ros_args
+    assert not any(arg.startswith('wait_topics') for arg in without_rig)
 
 
 def test_graph_comes_up_and_stops_cleanly_on_sigint() -> None:
