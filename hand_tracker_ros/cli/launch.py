@@ -1,18 +1,26 @@
 """`hand-tracker launch`: start the node graph as processes and stop it cleanly.
 
 Without ``--bag`` the five nodes run until Ctrl-C/SIGTERM (the player idles, the recorder
-records nothing): live cameras publish ``<cam>/image_raw`` and ``<cam>/camera_info``. With
-``--bag`` the player plays it (``/clock`` on, every node on sim time; with a rig, playback
-starts once ``features`` and ``salient_points`` listen to every camera, or after 60 s), the
-recorder writes the tracker's outputs to ``--record`` (default ``<bag>_tracked``), and the
-graph stops when the bag ends. Every process gets the shipped Fast DDS profile and its
-``config/<node>.yaml``, then the user's ``--params`` file, then the rig, camera and bag
-settings.
+records nothing): live cameras publish ``<cam>/image_raw`` and ``<cam>/camera_info``.
+
+With ``--bag`` (every node on sim time, the rig beside the bag unless ``--rig``):
+
+1. the four other nodes start, and the player starts once the tracker subscribes to every
+   camera's features and the recorder to the outputs (at most ``--startup-timeout``);
+2. the player plays the bag (``/clock`` on) once ``features`` and ``salient_points`` both
+   listen to every camera's images, so no frame is played into an unconnected graph;
+3. the recorder writes the tracker's outputs to ``--record`` (default ``<bag>_tracked``);
+4. when the bag ends, the graph gets ``--drain`` seconds to finish the frames in flight, then
+   every process is stopped.
+
+Every process gets the shipped Fast DDS profile and its ``config/<node>.yaml``, then the
+user's ``--params`` file, then the rig, camera and bag settings.
 """
 from __future__ import annotations
 
 import argparse
 import signal
+import time
 from pathlib import Path
 from typing import Any
 
@@ -62,21 +70,44 @@ def add_parser(sub: Any) -> None:
     parser.add_argument('--rig', help='rig YAML (default with --bag: rig.yaml beside the bag)')
     parser.add_argument('--params', help='ros__parameters YAML passed to every node')
     parser.add_argument('--record', help='output bag of the tracker (default <bag>_tracked)')
+    parser.add_argument('--startup-timeout', type=float, default=120.0, metavar='S',
+                        help='with --bag: longest wait for the graph to connect (default 120)')
+    parser.add_argument('--drain', type=float, default=5.0, metavar='S',
+                        help='with --bag: seconds for the frames in flight after the bag ends '
+                             '(default 5)')
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Start every node; on Ctrl-C/SIGTERM, or when the player (bag) ends, stop them all."""
+    """Start every node; on Ctrl-C/SIGTERM, or when the bag has played and drained, stop them."""
     rig = args.rig or (str(Path(args.bag).parent / 'rig.yaml') if args.bag else None)
     record = args.record or (f'{Path(args.bag).resolve()}_tracked' if args.bag else None)
-    group = ProcessGroup(graph_specs(args.params, rig=rig, bag=args.bag, record=record))
+    specs = graph_specs(args.params, rig=rig, bag=args.bag, record=record)
+    # With a bag the player starts last, once the graph is connected (module docstring).
+    graph = ProcessGroup([s for s in specs if not (args.bag and s.name == 'player')])
+    playback = ProcessGroup([s for s in specs if args.bag and s.name == 'player'])
     signal.signal(signal.SIGTERM, signal.default_int_handler)
-    group.start()
+    graph.start()
     try:
-        exited = group.wait_any(names=('player',) if args.bag else ())
-        print(f'[launch] {exited} exited; stopping the graph')
-    except KeyboardInterrupt:
-        print('[launch] interrupted; stopping the graph')
-    codes = group.stop()
+        try:
+            if args.bag and rig:
+                _play(playback, CameraRig.from_yaml(rig).names, args)
+            else:
+                print(f'[launch] {graph.wait_any()} exited; stopping the graph', flush=True)
+        except KeyboardInterrupt:
+            print('[launch] interrupted; stopping the graph')
+    finally:
+        codes = {**playback.stop(), **graph.stop()}
     print(f'[launch] exit codes: {codes}' + (f'; tracker outputs in {record}' if record else ''))
     return 0 if all(c in (0, -2) for c in codes.values()) else 1
+
+
+def _play(playback: ProcessGroup, cameras: tuple[str, ...], args: argparse.Namespace) -> None:
+    """Steps 1, 2 and 4 of the module docstring, once the other nodes run."""
+    from hand_tracker_ros.ros_io.graph import wait_for_tracking_graph  # rclpy only here
+
+    wait_for_tracking_graph(cameras, RECORDED, timeout_s=args.startup_timeout)
+    playback.start()
+    playback.wait_any()
+    print(f'[launch] player exited; stopping the graph in {args.drain:g} s', flush=True)
+    time.sleep(args.drain)

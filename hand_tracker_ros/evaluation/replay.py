@@ -105,7 +105,8 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
     graph = ProcessGroup(nodes)
     graph.start()
     try:
-        _wait_until_connected(list(rig.names), startup_s)
+        from hand_tracker_ros.ros_io.graph import wait_for_tracking_graph  # rclpy only here
+        wait_for_tracking_graph(rig.names, OUTPUT_TOPICS, timeout_s=startup_s)
         playback = ProcessGroup([player])
         playback.start()
         try:
@@ -121,18 +122,6 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
         codes = graph.stop()
     LOG.info('graph exit codes: %s', codes)
     return score_recording(recorded, truth, rig)
-
-
-def _wait_until_connected(cameras: list[str], timeout_s: float) -> None:
-    """Block until the tracker and the recorder subscribe (see :func:`replay`)."""
-    from hand_tracker_ros.ros_io.graph import wait_for_subscriptions  # rclpy only here
-    from hand_tracker_ros.ros_io.observations import PARTS
-
-    topics = {f'/{c}/{part}' for c in cameras for part in PARTS} | set(OUTPUT_TOPICS)
-    missing = topics - wait_for_subscriptions(topics, timeout_s=timeout_s)
-    if missing:
-        msg = f'the graph did not subscribe to {sorted(missing)} within {timeout_s:.0f} s'
-        raise HandTrackerError(msg)
 
 
 def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: CameraRig

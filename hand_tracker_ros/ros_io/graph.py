@@ -1,5 +1,5 @@
 """Read the live ROS graph: which nodes are up, which topics have subscribers (used by the
-demo, the bag replay and the tests)."""
+demo, `hand-tracker launch`, the bag replay and the tests)."""
 from __future__ import annotations
 
 import time
@@ -7,6 +7,9 @@ from collections.abc import Callable, Iterable
 
 import rclpy
 from rclpy.node import Node
+
+from hand_tracker_ros.errors import HandTrackerError
+from hand_tracker_ros.ros_io.observations import PARTS
 
 
 def _poll(wanted: set[str], probe: Callable[[Node], set[str]], timeout_s: float) -> set[str]:
@@ -44,3 +47,19 @@ def wait_for_nodes(names: Iterable[str], *, timeout_s: float = 30.0,
     partial set means the timeout expired first)."""
     return _poll(set(names), lambda node: {n for n, ns in node.get_node_names_and_namespaces()
                                            if ns == namespace}, timeout_s)
+
+
+def wait_for_tracking_graph(cameras: Iterable[str], outputs: Iterable[str], *,
+                            timeout_s: float) -> None:
+    """Block until the tracker subscribes to every camera's feature topics
+    (``/<cam>/<part>``) and a recorder to every topic of ``outputs``.
+
+    Frames played before then are lost, and a loaded machine can need more than 8 s to start
+    the tracker. Raises :class:`HandTrackerError` naming the topics still unsubscribed after
+    ``timeout_s``.
+    """
+    topics = {f'/{c}/{part}' for c in cameras for part in PARTS} | set(outputs)
+    missing = topics - wait_for_subscriptions(topics, timeout_s=timeout_s)
+    if missing:
+        msg = f'the graph did not subscribe to {sorted(missing)} within {timeout_s:.0f} s'
+        raise HandTrackerError(msg)
