@@ -15,7 +15,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TextIO
 
@@ -23,6 +23,19 @@ from hand_tracker_ros.ament import executable
 from hand_tracker_ros.ros_env import apply_ros_defaults
 
 LOG = logging.getLogger(__name__)
+
+
+def ros_list(values: Iterable[str]) -> str:
+    """Strings as the value of a ``-p name:=[a,b]`` ROS argument."""
+    return '[' + ','.join(values) + ']'
+
+
+def player_waits_for_image_consumers(cameras: Iterable[str]) -> tuple[str, ...]:
+    """Player ROS arguments that hold playback (at most 60 s) until both ``features`` and
+    ``salient_points`` subscribe to every camera's ``image_raw``."""
+    images = ros_list(f'/{c}/image_raw' for c in cameras)
+    return ('-p', f'wait_topics:={images}', '-p', 'wait_subscriber_count:=2',
+            '-p', 'wait_for_subscribers_s:=60.0')
 
 
 @dataclass(frozen=True)

@@ -26,14 +26,11 @@ from typing import Any
 
 from hand_tracker_ros.ament import share_file
 from hand_tracker_ros.geometry.rig import CameraRig
-from hand_tracker_ros.launcher import ProcessGroup, ProcessSpec
+from hand_tracker_ros.launcher import (ProcessGroup, ProcessSpec, player_waits_for_image_consumers,
+                                       ros_list)
 
 NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')
 RECORDED = ('/joint_states', '/hand_state', '/markers', '/diagnostics')
-
-
-def _list(values: list[str]) -> str:
-    return '[' + ','.join(values) + ']'
 
 
 def graph_specs(params_file: str | None = None, *, rig: str | None = None,
@@ -43,18 +40,15 @@ def graph_specs(params_file: str | None = None, *, rig: str | None = None,
     names = list(CameraRig.from_yaml(rig).names) if rig else []
     if rig:
         for name in ('features', 'salient_points', 'tracker'):
-            extra[name] += ['-p', f'cameras:={_list(names)}']
+            extra[name] += ['-p', f'cameras:={ros_list(names)}']
         extra['tracker'] += ['-p', f'rig_file:={Path(rig).resolve()}']
     if bag:
         for name in NODES:
             extra[name] += ['-p', 'use_sim_time:=true']
         extra['player'] += ['-p', f'bag:={bag}']
         if names:
-            # Both `features` and `salient_points` subscribe to every camera's images.
-            images = _list([f'/{c}/image_raw' for c in names])
-            extra['player'] += ['-p', f'wait_topics:={images}', '-p', 'wait_subscriber_count:=2',
-                                '-p', 'wait_for_subscribers_s:=60.0']
-        extra['recorder'] += ['-p', f'output:={record}', '-p', f'topics:={_list(list(RECORDED))}']
+            extra['player'] += player_waits_for_image_consumers(names)
+        extra['recorder'] += ['-p', f'output:={record}', '-p', f'topics:={ros_list(RECORDED)}']
     user = ['--params-file', params_file] if params_file else []
     return [ProcessSpec(name=name, executable=name,
                         ros_args=('--params-file', str(share_file(f'config/{name}.yaml')),

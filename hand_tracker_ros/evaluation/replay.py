@@ -28,7 +28,8 @@ from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
-from hand_tracker_ros.launcher import ProcessGroup, ProcessSpec
+from hand_tracker_ros.launcher import (ProcessGroup, ProcessSpec, player_waits_for_image_consumers,
+                                       ros_list)
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
 
@@ -48,34 +49,27 @@ class ReplayOutcome:
     errors_mm: FloatArray    # per scored frame, mean 3D joint error, in stamp order
 
 
-def _list(values: list[str]) -> str:
-    return '[' + ','.join(values) + ']'
-
-
 def graph_specs(bag: Path, rig_path: Path, cameras: list[str], out: Path, rate: float,
                 initial_pose: np.ndarray | None) -> tuple[list[ProcessSpec], ProcessSpec]:
     """The node processes and the player process of one replay."""
     sim = ('-p', 'use_sim_time:=true')
-    cams = ('-p', f'cameras:={_list(cameras)}')
+    cams = ('-p', f'cameras:={ros_list(cameras)}')
     # The parameter file first: later -p values override it.
     tracker_args = ['--params-file', str(share_file('config/tracker.yaml')), *sim, *cams,
                     '-p', f'rig_file:={rig_path}']
     if initial_pose is not None:
-        pose = ','.join(repr(float(v)) for v in initial_pose)
-        tracker_args += ['-p', f'initial_pose:=[{pose}]', '-p', 'initialization:=initial_pose']
+        pose = ros_list(repr(float(v)) for v in initial_pose)
+        tracker_args += ['-p', f'initial_pose:={pose}', '-p', 'initialization:=initial_pose']
     nodes = [
         ProcessSpec('features', 'features', (*sim, *cams)),
         ProcessSpec('salient_points', 'salient_points', (*sim, *cams)),
         ProcessSpec('tracker', 'tracker', tuple(tracker_args)),
         ProcessSpec('recorder', 'recorder', (*sim, '-p', f'output:={out}',
-                                             '-p', f'topics:={_list(list(OUTPUT_TOPICS))}')),
+                                             '-p', f'topics:={ros_list(OUTPUT_TOPICS)}')),
     ]
-    # Both `features` and `salient_points` subscribe to every camera's images.
-    image_topics = [f'/{c}/image_raw' for c in cameras]
     player = ProcessSpec('player', 'player', (
         '-p', f'bag:={bag}', '-p', f'playback.rate:={rate}', '-p', 'publish_clock:=true',
-        '-p', f'wait_topics:={_list(image_topics)}', '-p', 'wait_subscriber_count:=2',
-        '-p', 'wait_for_subscribers_s:=60.0'))
+        *player_waits_for_image_consumers(cameras)))
     return nodes, player
 
 

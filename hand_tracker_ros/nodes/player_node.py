@@ -9,10 +9,11 @@ bag.
 
 Start and pause. Playback starts once every topic of ``wait_topics`` has
 ``wait_subscriber_count`` subscribers (or after ``wait_for_subscribers_s``), so the first
-messages of a short bag are not published before anyone listens. ``std_srvs`` is not on PyPI, so pausing is a topic instead of the
-rosbag2 ``~/pause``/``~/resume`` services: ``std_msgs/Bool`` on ``~/pause`` pauses (``true``)
-or resumes (``false``); with ``start_paused`` playback waits for the first ``false``. Time
-spent paused shifts the rest of the schedule.
+messages of a short bag are not published before anyone listens. ``std_srvs`` is not on
+PyPI, so pausing is a topic instead of the rosbag2 ``~/pause``/``~/resume`` services:
+``std_msgs/Bool`` on ``~/pause`` pauses (``true``) or resumes (``false``); with
+``start_paused`` playback waits for the first ``false``. Time spent paused shifts the rest of
+the schedule.
 
 End. Without ``playback.loop`` the node waits (up to ``ack_timeout_s``) until reliable
 subscribers acknowledged everything, then shuts its context down, so ``spin`` returns and the
