@@ -32,7 +32,7 @@ def bench(width: int, height: int, frames: int, overrides: dict) -> None:
     sets = [FrameSet(shot.stamp_ns, shot.images) for shot in shots]
     config = from_mapping(PipelineConfig, overrides)
     pipe = OfflinePipeline(model, seq.rig, config)
-    pipe.tracker.reset(shots[0].theta)
+    pipe.session.reset(shots[0].theta)
     pipe.step(sets[1])  # warm-up (numba caches, pools)
     stages = defaultdict(list)
     serial = []
@@ -50,7 +50,7 @@ def bench(width: int, height: int, frames: int, overrides: dict) -> None:
               f'max {max(values):.1f})')
 
     pipe = OfflinePipeline(model, seq.rig, config)
-    pipe.tracker.reset(shots[0].theta)
+    pipe.session.reset(shots[0].theta)
     pipe.step(sets[1])
     walls, pipelined = [], []
     start = time.perf_counter()

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 from hand_tracker_ros.bags.playback import PlaybackConfig
 from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.tracking.session import SessionConfig
 from hand_tracker_ros.tracking.tracker import TrackerConfig
-from hand_tracker_ros.tracking.initialize import InitConfig
 from hand_tracker_ros.vision.detector.detector import DetectorConfig
 from hand_tracker_ros.vision.features import FeaturesConfig
 
@@ -67,12 +67,12 @@ class TrackerNodeConfig:
                                     low=1, high=1000)
     initial_pose: tuple[float, ...] = param(NEUTRAL_POSE, 'start pose, 26 numbers in '
                                             'JointState order (m, rad); also used to '
-                                            're-initialize after tracking.failure.'
+                                            're-initialize after session.failure.'
                                             'reinit_after lost frames')
     initialization: str = param('observations', 'first pose and recovery: search the hand in '
                                 'the observations, or use initial_pose',
                                 choices=('observations', 'initial_pose'))
-    init: InitConfig = nested(InitConfig)
+    session: SessionConfig = nested(SessionConfig)
     publish_mesh: bool = param(False, 'add the model mesh (TRIANGLE_LIST) to `markers`')
     publish_overlay: bool = param(False, 'publish <cam>/overlay: the model drawn on the input')
     optical_frame_suffix: str = param('_optical_frame', 'frame id of <cam>/overlay is the '

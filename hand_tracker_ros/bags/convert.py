@@ -243,6 +243,8 @@ class HandStateValues:
         World frame of the estimate.
     status : int
         0 initializing, 1 tracking, 2 lost (the message's ``STATUS_*`` constants).
+    confidence : float
+        Probability in [0, 1] that the estimate is right.
     joint_names : tuple of str, length P
     joint_positions : (P,) float64
         m for hand_tx/ty/tz, rad for rotations.
@@ -264,6 +266,7 @@ class HandStateValues:
     stamp_ns: int
     frame_id: str
     status: int
+    confidence: float
     joint_names: tuple[str, ...]
     joint_positions: FloatArray
     keypoint_names: tuple[str, ...]
@@ -299,7 +302,7 @@ def hand_state_msg(state: HandStateValues) -> Any:
     _check_hand_state(state)
     return _types()['hand_tracker_msgs/msg/HandState'](
         header=header_msg(state.stamp_ns, state.frame_id), status=int(state.status),
-        joint_names=list(state.joint_names),
+        confidence=float(state.confidence), joint_names=list(state.joint_names),
         joint_positions=np.array(state.joint_positions, dtype=np.float64),
         keypoint_names=list(state.keypoint_names), keypoints=_points_msg(state.keypoints_m),
         fingertips=_points_msg(state.fingertips_m), shape_names=list(state.shape_names),
@@ -313,7 +316,7 @@ def hand_state_from_msg(msg: Any) -> HandStateValues:
     """Return the plain values of a ``hand_tracker_msgs/msg/HandState``."""
     return HandStateValues(
         stamp_ns=stamp_ns_of(msg.header), frame_id=msg.header.frame_id, status=int(msg.status),
-        joint_names=tuple(msg.joint_names),
+        confidence=float(msg.confidence), joint_names=tuple(msg.joint_names),
         joint_positions=np.array(msg.joint_positions, dtype=np.float64),
         keypoint_names=tuple(msg.keypoint_names), keypoints_m=_points_array(msg.keypoints),
         fingertips_m=_points_array(msg.fingertips), shape_names=tuple(msg.shape_names),

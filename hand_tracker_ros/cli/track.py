@@ -15,7 +15,7 @@ from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import load_rig
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag, write_estimates
-from hand_tracker_ros.tracking.tracker import TrackStatus
+from hand_tracker_ros.tracking.result import TrackStatus
 
 
 def add_parser(sub: Any) -> None:

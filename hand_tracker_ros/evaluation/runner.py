@@ -23,7 +23,7 @@ from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.tracking.tracker import TrackStatus
+from hand_tracker_ros.tracking.result import TrackStatus
 
 LOG = logging.getLogger(__name__)
 
@@ -73,7 +73,7 @@ def run_job(job: Job) -> RunResult:
     faces_part = face_parts(model.faces, model.vertex_part)
     truth, estimate, lost, seconds, depth = [], [], [], [], []
     first = sequence.frame(0)
-    pipeline.tracker.reset(first.theta)
+    pipeline.session.reset(first.theta)
     pipeline.observe(FrameSet(first.stamp_ns, first.images))
     for k in range(1, len(sequence)):
         frame = sequence.frame(k)
@@ -84,8 +84,8 @@ def run_job(job: Job) -> RunResult:
         seconds.append(result.timings_s['total'])
         depth.append(max_interpenetration_m(result.posed.vertices_m, model.faces, faces_part,
                                             model.adjacent_parts))
-        if pipeline.tracker.lost_frames >= job.pipeline.tracker.failure.reinit_after:
-            pipeline.tracker.reset(frame.theta)
+        if pipeline.session.lost_frames >= job.pipeline.session.failure.reinit_after:
+            pipeline.session.reset(frame.theta)
     pipeline.close()
     est, tru = np.array(estimate), np.array(truth)
     scores = score_sequence(est, tru, lost, sequence.rig.cameras, depth, seconds)

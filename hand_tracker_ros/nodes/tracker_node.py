@@ -26,10 +26,11 @@ progress. A plain thread was chosen over a MultiThreadedExecutor with callback g
 because the one-slot mailbox states the "newest set wins" policy directly and the
 executor thread stays free for callbacks and timers whatever the tracker costs.
 
-Initialization (``initialization``): ``observations`` (default) searches the hand in the first
-complete set and again after ``tracking.failure.reinit_after`` consecutive LOST frames
-(:mod:`hand_tracker_ros.tracking.initialize`); ``initial_pose`` starts at, and resets to,
-that pose. The camera intrinsics and extrinsics come from
+Tracking policy: the node drives a :class:`hand_tracker_ros.tracking.session.TrackingSession`,
+the same one the offline pipeline uses (start, recovery, LOST, confidence; ``session.*``).
+``initialization``: ``observations`` (default) searches the hand in the first complete set and
+again after ``session.failure.reinit_after`` consecutive LOST frames; ``initial_pose`` starts
+at, and resets to, that pose. The camera intrinsics and extrinsics come from
 ``rig_file``; a camera_info whose size contradicts the rig drops that camera's frames with
 a throttled error; a missing camera_info is only reported (the rig is used). Without a
 ``rig_file`` the node stays idle and says so.
@@ -68,9 +69,10 @@ from hand_tracker_ros.ros_io.observations import (PARTS, CameraFrame, FrameAssem
                                                   frame_observations, part_value, stamp_ns_of)
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
-from hand_tracker_ros.tracking.initialize import initialize
 from hand_tracker_ros.tracking.overlay import draw_overlay
-from hand_tracker_ros.tracking.tracker import HandTracker, TrackResult, TrackStatus
+from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
+from hand_tracker_ros.tracking.session import TrackingSession
+from hand_tracker_ros.tracking.tracker import HandTracker
 
 DESCRIPTION = 'Synchronized multi-camera hand tracking (collision-aware Levenberg-Marquardt).'
 THROTTLE_S = 5.0
@@ -139,10 +141,11 @@ class TrackerNode(Node):
         self._cameras = tuple(rig[c] for c in self.config.cameras)
         self._by_name = {c.name: c for c in self._cameras}
         self._model = HandModel.build()
-        self._initial = np.asarray(self.config.initial_pose, np.float64)
+        initial = (np.asarray(self.config.initial_pose, np.float64)
+                   if self.config.initialization == 'initial_pose' else None)
         self._tracker = HandTracker(self._model, self._cameras, self.config.tracking)
-        if self.config.initialization == 'initial_pose':
-            self._tracker.reset(self._initial)
+        self._session = TrackingSession(self._tracker, self.config.session,
+                                        initial_pose=initial)
         self._init_state()
         self._create_interfaces()
         self._worker = threading.Thread(target=self._work, name='tracker', daemon=True)
@@ -261,7 +264,8 @@ class TrackerNode(Node):
     @staticmethod
     def _new_period() -> dict[str, Any]:
         """Counters of one diagnostics period (filled by the processing thread)."""
-        return {'processed': 0, 'latencies_s': [], 'processing_s': [], 'iterations': []}
+        return {'processed': 0, 'latencies_s': [], 'processing_s': [], 'iterations': [],
+                'confidence': []}
 
     def _log_throttled(self, key: str, level: str, text: str) -> None:
         """Log ``text`` at most every THROTTLE_S per ``key`` (rclpy throttles per call site,
@@ -292,7 +296,7 @@ class TrackerNode(Node):
             sync=self._sync.stats, processed=period['processed'],
             skipped=self._mailbox.skipped, latencies_s=period['latencies_s'],
             processing_s=period['processing_s'], iterations=period['iterations'],
-            status=status, reinitializations=reinits)
+            confidence=period['confidence'], status=status, reinitializations=reinits)
         self._frames.clear()
         self._pub_diag.publish(outputs.diagnostics_msg(
             self.get_name(), health, self.get_clock().now().nanoseconds))
@@ -314,30 +318,31 @@ class TrackerNode(Node):
 
     def _process(self, synced: SyncedSet, received_s: float) -> None:
         observations = frame_observations(synced.stamp_ns, synced.items, self._cameras)
-        if not self._tracker.initialized:
-            try:
-                initialize(self._tracker, observations, self.config.init)
-            except HandTrackerError as err:
-                self._log_throttled('initialize', 'warning', f'cannot initialize yet: {err}')
-                return
-        result = self._tracker.track(observations)
+        restarts = self._session.restarts
+        try:
+            result = self._session.step(observations)
+        except HandTrackerError as err:
+            self._log_throttled('initialize', 'warning', f'cannot find the hand yet: {err}')
+            return
         processing_s = time.monotonic() - received_s
         self._publish(result, synced, processing_s)
         latency_s = (self.get_clock().now().nanoseconds - synced.stamp_ns) / 1e9
-        reinit = (result.status != TrackStatus.TRACKING
-                  and self._tracker.lost_frames >= self.config.tracking.failure.reinit_after)
-        if reinit:
-            self.get_logger().warning(f'{self._tracker.lost_frames} frames lost: '
-                                      f're-initializing from {self.config.initialization}')
-            self._tracker.reset(self._initial if self.config.initialization == 'initial_pose'
-                                else None)
+        restarted = self._session.restarts - restarts
+        if restarted:
+            self.get_logger().warning(f'hand lost: re-initializing from '
+                                      f'{self.config.initialization}')
+        elif result.status != TrackStatus.TRACKING:
+            self._log_throttled('lost', 'warning', f'hand lost (confidence '
+                                f'{result.confidence:.2f}, {self._session.lost_frames} frames '
+                                'in a row)')
         with self._lock:
             self._period['processed'] += 1
             self._period['latencies_s'].append(latency_s)
             self._period['processing_s'].append(processing_s)
             self._period['iterations'].append(result.iterations)
+            self._period['confidence'].append(result.confidence)
             self._status = result.status
-            self._reinits += reinit
+            self._reinits += restarted
 
     def _publish(self, result: TrackResult, synced: SyncedSet, processing_s: float) -> None:
         frame_id = self.config.world_frame

@@ -27,10 +27,11 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.synthetic.edge_noise import EdgeNoiseConfig, add_edge_noise
-from hand_tracker_ros.tracking.initialize import InitConfig, initialize
 from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
                                                     SalientDetections)
-from hand_tracker_ros.tracking.tracker import HandTracker, TrackerConfig, TrackResult
+from hand_tracker_ros.tracking.result import TrackResult
+from hand_tracker_ros.tracking.session import SessionConfig, TrackingSession
+from hand_tracker_ros.tracking.tracker import HandTracker, TrackerConfig
 from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
 from hand_tracker_ros.vision.edges import edge_map_from
 from hand_tracker_ros.vision.features import CameraFeatures, FeaturesConfig, MultiCameraFeatures
@@ -47,9 +48,9 @@ class PipelineConfig:
     use_detector: bool = param(True, 'detect fingertips (salient points) with the trained '
                                'detector')
     tracker: TrackerConfig = nested(TrackerConfig)
-    init: InitConfig = nested(InitConfig)
+    session: SessionConfig = nested(SessionConfig)
     auto_initialize: bool = param(True, 'find the hand from the observations on the first frame '
-                                  'and after failure.reinit_after lost frames')
+                                  'and after session.failure.reinit_after lost frames')
     edge_noise: EdgeNoiseConfig = nested(EdgeNoiseConfig)
     edge_noise_seed: int = param(0, 'seed of the structured edge noise', low=0)
 
@@ -68,6 +69,8 @@ class OfflinePipeline:
         self.rig = rig
         self.config = config
         self.tracker = HandTracker(model, rig.cameras, config.tracker)
+        self.session = TrackingSession(self.tracker, config.session,
+                                       search=config.auto_initialize)
         self._features = MultiCameraFeatures(rig.names, config.features)
         if detector is None and config.use_detector:
             detector = FingertipDetector.load(config=config.detector).detect
@@ -110,9 +113,9 @@ class OfflinePipeline:
     def step(self, frames: FrameSet) -> TrackResult:
         """Observe and track one frame set.
 
-        With ``auto_initialize`` the hand is searched for (:mod:`..tracking.initialize`) on the
-        first frame and after ``failure.reinit_after`` consecutive lost frames; otherwise the
-        tracker must have been reset to a pose.
+        The tracking session (:mod:`..tracking.session`) decides status, recovery and, with
+        ``auto_initialize``, the search for the hand; otherwise it must have been reset to a
+        pose (``pipeline.session.reset``).
         """
         return self._fit(*self.observe(frames))
 
@@ -141,12 +144,7 @@ class OfflinePipeline:
             yield self._fit(*observed)
 
     def _fit(self, observations: FrameObservations, timings: dict[str, float]) -> TrackResult:
-        lost = self.tracker.lost_frames >= self.config.tracker.failure.reinit_after
-        if self.config.auto_initialize and (not self.tracker.initialized or lost):
-            start = time.perf_counter()
-            initialize(self.tracker, observations, self.config.init)
-            timings['initialize'] = time.perf_counter() - start
-        result = self.tracker.track(observations)
+        result = self.session.step(observations)
         result.timings_s.update(timings)
         result.timings_s['total'] += sum(timings.values())
         return result

@@ -21,7 +21,7 @@ from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.pipeline.frames import FrameSet, frame_sets, ground_truth, load_rig
 from hand_tracker_ros.pipeline.offline import Detector, OfflinePipeline, PipelineConfig
-from hand_tracker_ros.tracking.tracker import TrackResult, TrackStatus
+from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 
 LOG = logging.getLogger(__name__)
 JOINTS_TOPIC = '/hand/joint_states'
@@ -42,7 +42,8 @@ def hand_state_values(result: TrackResult, model: HandModel, world_frame: str
     names = tuple(result.energy_costs)
     return HandStateValues(
         stamp_ns=result.stamp_ns, frame_id=world_frame, status=int(result.status),
-        joint_names=PARAM_NAMES, joint_positions=result.theta, keypoint_names=KEYPOINT_NAMES,
+        confidence=result.confidence, joint_names=PARAM_NAMES, joint_positions=result.theta,
+        keypoint_names=KEYPOINT_NAMES,
         keypoints_m=result.posed.keypoints_m, fingertips_m=result.posed.fingertips_m,
         shape_names=SHAPE_NAMES, shape_parameters=model.shape.to_vector(),
         energy_names=names, energy_costs=np.array([result.energy_costs[n] for n in names]),
@@ -59,11 +60,11 @@ def track_bag(bag: str | Path, *, rig_path: str | Path | None = None,
     pipeline = OfflinePipeline(model, rig, config, detector)
 
     def initialise(frames: FrameSet) -> None:
-        if init_from_ground_truth and not pipeline.tracker.initialized:
+        if init_from_ground_truth and not pipeline.session.initialized:
             if frames.stamp_ns not in truth:
                 msg = f'{bag}: no ground truth at {frames.stamp_ns} to initialise from'
                 raise ValueError(msg)
-            pipeline.tracker.reset(np.asarray(truth[frames.stamp_ns].joint_positions))
+            pipeline.session.reset(np.asarray(truth[frames.stamp_ns].joint_positions))
 
     try:
         for result in pipeline.run(frame_sets(bag, rig), before_fit=initialise):

@@ -36,7 +36,7 @@ from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.sync.approximate import SyncStats
 from hand_tracker_ros.tracking.overlay import KEYPOINT_PARENTS
-from hand_tracker_ros.tracking.tracker import TrackResult, TrackStatus
+from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 
 BONE_WIDTH_M = 0.003
 JOINT_DIAMETER_M = 0.008
@@ -65,7 +65,7 @@ def hand_state_msg(result: TrackResult, model: HandModel, frame_id: str,
     energy_names = sorted(result.energy_costs)
     return HandState(
         header=header_at(result.stamp_ns, frame_id), status=int(result.status),
-        joint_names=list(PARAM_NAMES), joint_positions=[float(v) for v in result.theta],
+        confidence=float(result.confidence), joint_names=list(PARAM_NAMES), joint_positions=[float(v) for v in result.theta],
         keypoint_names=list(KEYPOINT_NAMES), keypoints=_points(result.posed.keypoints_m),
         fingertips=_points(result.posed.fingertips_m), shape_names=list(SHAPE_NAMES),
         shape_parameters=[float(v) for v in model.shape.to_vector()],
@@ -133,10 +133,12 @@ class TrackerHealth:
         Wall time from a set's completion to its publication, per set of the period (s).
     iterations : sequence of int
         LM iterations of each set tracked in the period.
+    confidence : sequence of float
+        Confidence (0-1) of each set tracked in the period.
     status : TrackStatus or None
         Status of the last result (None: nothing tracked yet).
     reinitializations : int
-        Re-initializations to the initial pose after lost frames (total).
+        Starts after lost frames (initial pose or search; total).
     """
 
     period_s: float
@@ -149,6 +151,7 @@ class TrackerHealth:
     latencies_s: Sequence[float]
     processing_s: Sequence[float]
     iterations: Sequence[int]
+    confidence: Sequence[float]
     status: TrackStatus | None
     reinitializations: int
 
@@ -175,6 +178,7 @@ def _tracking_status(node: str, health: TrackerHealth) -> DiagnosticStatus:
     latency = np.asarray(health.latencies_s, np.float64) * 1e3
     processing = np.asarray(health.processing_s, np.float64) * 1e3
     iterations = np.asarray(health.iterations, np.float64)
+    confidence = np.asarray(health.confidence, np.float64)
     status = 'no input yet' if health.status is None else health.status.name.lower()
     values = {
         'status': status, 'processed_sets': health.processed, 'skipped_sets': health.skipped,
@@ -184,6 +188,8 @@ def _tracking_status(node: str, health: TrackerHealth) -> DiagnosticStatus:
         'latency_max_ms': f'{latency.max():.1f}' if latency.size else 'n/a',
         'processing_mean_ms': f'{processing.mean():.1f}' if processing.size else 'n/a',
         'lm_iterations_mean': f'{iterations.mean():.1f}' if iterations.size else 'n/a',
+        'confidence_last': f'{confidence[-1]:.3f}' if confidence.size else 'n/a',
+        'confidence_min': f'{confidence.min():.3f}' if confidence.size else 'n/a',
     }
     level = DiagnosticStatus.OK if health.status == TrackStatus.TRACKING else \
         DiagnosticStatus.WARN

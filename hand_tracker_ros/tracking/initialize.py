@@ -6,18 +6,20 @@
    ``(sum_i P_i) x = sum_i P_i o_i`` with ``P_i = I - d_i d_i^T``.
 2. **How oriented**: hypotheses of the relaxed hand centred there, rotated over a grid of
    roll (about the finger axis) and pitch angles, are scored by the mean silhouette IoU of the
-   rendered model with the observed masks (:mod:`.health`).
-3. **Refine**: the best few hypotheses are tracked on the frame (the usual rounds, repeated)
-   and the one with the best final silhouette agreement wins.
+   rendered model with the observed masks (:func:`.evidence.silhouette_iou`).
+3. **Refine**: the ``keep`` best hypotheses get ``quick_passes`` short fits (one round,
+   :data:`.schedule.QUICK`) and are ranked by the caller's ``score`` (the tracking session
+   passes its confidence, :mod:`.evidence`; the default is the silhouette IoU); the
+   ``refine_best`` best of them get ``refine_frames`` full fits, and the best score wins. The
+   ranking of the unfitted relaxed hands by IoU is weak (on a random-motion frame the
+   hypothesis that ends within 15 mm ranked 11th of 48), hence the short fits of many.
 
-Cost: about 6-8 s on this 2-core machine with the defaults (96 hypotheses, 6 x 8 refinement
-passes); on synthetic frames it lands within ~3-10 mm for open and rotating hands, while
-strongly flexed grasps can end in a local minimum (~20 mm), which tracking then has to recover.
+Cost: 48 short fits and 18 full fits with the defaults, a few seconds on a 2-core machine.
 """
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,8 +30,10 @@ from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.synthetic.motions import RELAXED_DEG
-from hand_tracker_ros.tracking.health import silhouette_iou
+from hand_tracker_ros.tracking.evidence import silhouette_iou
 from hand_tracker_ros.tracking.observations import FrameObservations
+from hand_tracker_ros.tracking.schedule import QUICK, Round
+from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
 LOG = logging.getLogger(__name__)
 
@@ -42,9 +46,12 @@ class InitConfig:
                             high=72)
     pitches_deg: tuple[float, ...] = param((-60.0, 0.0, 60.0), 'hypotheses of wrist pitch',
                                            unit='deg')
-    keep: int = param(6, 'best hypotheses refined by tracking', low=1, high=50)
-    refine_frames: int = param(8, 'tracking passes over the frame per refined hypothesis',
-                               low=1, high=50)
+    keep: int = param(24, 'hypotheses (best silhouette IoU first) given short fits',
+                      low=1, high=500)
+    quick_passes: int = param(2, 'short fits (one round) per kept hypothesis', low=1, high=50)
+    refine_best: int = param(3, 'hypotheses (best score after the short fits) refined',
+                             low=1, high=50)
+    refine_frames: int = param(6, 'full fits per refined hypothesis', low=1, high=50)
     min_mask_px: int = param(50, 'masks smaller than this are ignored', unit='px', low=1)
 
 
@@ -85,9 +92,13 @@ def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArr
     return out
 
 
-def initialize(tracker, observations: FrameObservations,  # noqa: ANN001
-               config: InitConfig = InitConfig()) -> FloatArray:
-    """A pose of the hand seen in ``observations``; leaves ``tracker`` reset to it."""
+def initialize(tracker: HandTracker, observations: FrameObservations,
+               config: InitConfig = InitConfig(),
+               score: Callable[[Fit], float] | None = None) -> FloatArray:
+    """A pose of the hand seen in ``observations``; leaves ``tracker`` reset to it.
+
+    ``score`` ranks the refined hypotheses (higher is better); by default the silhouette IoU.
+    """
     masks = [c.features.mask for c in observations.cameras]
     center = triangulate_mask_centroids(tracker.cameras, masks, config.min_mask_px)
     scored = []
@@ -95,16 +106,21 @@ def initialize(tracker, observations: FrameObservations,  # noqa: ANN001
         views = tracker.views(tracker.model.pose(theta, jacobian=False))
         scored.append((silhouette_iou(views, observations), theta))
     scored.sort(key=lambda item: -item[0])
-    best_iou, best = -1.0, scored[0][1]
-    for _, theta in scored[:config.keep]:
+    if score is None:
+        def score(fit: Fit) -> float:
+            return silhouette_iou(fit.views, observations)
+
+    def refined(theta: FloatArray, passes: int, plan: tuple[Round, ...] | None) -> Fit:
         tracker.reset(theta)
-        result = None
-        for _ in range(config.refine_frames):
-            result = tracker.track(observations)
-            tracker.reset(result.theta)
-        iou = silhouette_iou(tracker.views(result.posed), observations)
-        if iou > best_iou:
-            best_iou, best = iou, result.theta
-    LOG.info('initialized at %s (silhouette IoU %.2f)', np.round(center, 3), best_iou)
+        for _ in range(passes):
+            fit = tracker.fit(observations, plan=plan, separate=plan is None)
+            tracker.reset(fit.theta)
+        return fit
+
+    quick = [refined(theta, config.quick_passes, QUICK) for _, theta in scored[:config.keep]]
+    quick.sort(key=lambda fit: -score(fit))
+    finals = [refined(fit.theta, config.refine_frames, None) for fit in quick[:config.refine_best]]
+    best_score, best = max(((score(fit), fit.theta) for fit in finals), key=lambda item: item[0])
+    LOG.info('initialized at %s (score %.2f)', np.round(center, 3), best_score)
     tracker.reset(best)
     return best

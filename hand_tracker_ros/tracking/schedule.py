@@ -52,3 +52,7 @@ def rounds(config: ScheduleConfig) -> list[Round]:
     everything = np.ones(Layout.P, bool)
     return [Round(coarse if i < config.coarse_rounds else everything, i < n_flow)
             for i in range(total)]
+
+
+# One round with every parameter free and no flow: enough to rank start hypotheses.
+QUICK: tuple[Round, ...] = (Round(np.ones(Layout.P, bool), use_flow=False),)

@@ -1,4 +1,4 @@
-"""Per-frame model fitting: warm start, coarse-to-fine rounds, failure detection.
+"""Per-frame model fitting: warm start, coarse-to-fine rounds, separation.
 
 For every synchronized frame set the tracker starts from the previous estimate and runs the
 rounds of :mod:`.schedule`. Each round poses the model, renders it into every camera
@@ -10,18 +10,15 @@ earlier rounds stay in its later ones (``RoundContext.collisions``). While non-a
 of the fitted estimate still intersect, separation rounds (:mod:`.separation`) push them
 apart.
 
-After the last round the estimate is checked (:mod:`.health`): a non-finite result or a model
-silhouette that is no longer covered by the observed foreground masks marks the frame LOST;
-nothing is published as tracking then, and after ``failure.reinit_after`` lost frames the tracker
-re-initialises from the observations (:mod:`.initialize`).
+A fit changes nothing in the tracker: :meth:`HandTracker.accept` makes it the previous frame
+of the next one. Whether to accept it, and when to look for the hand elsewhere, is the
+tracking session's policy (:mod:`.session`).
 """
 from __future__ import annotations
 
-import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from enum import IntEnum
 from typing import Any
 
 import numpy as np
@@ -36,27 +33,16 @@ from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
 from hand_tracker_ros.optim.pso import PSOConfig, particle_swarm
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.tracking.energies import TermsConfig, build_terms
-from hand_tracker_ros.tracking.health import FailureConfig, silhouette_coverage
 from hand_tracker_ros.tracking.observations import FrameObservations
 from hand_tracker_ros.tracking.problem import Problem
-from hand_tracker_ros.tracking.schedule import ScheduleConfig, rounds
+from hand_tracker_ros.tracking.schedule import Round, ScheduleConfig, rounds
 from hand_tracker_ros.tracking.separation import SeparationConfig, Separator
 from hand_tracker_ros.tracking.views import ModelView, PreviousFrame, RoundContext, model_views
-
-LOG = logging.getLogger(__name__)
-
-
-class TrackStatus(IntEnum):
-    """Matches ``hand_tracker_msgs/HandState`` STATUS_* constants."""
-
-    INITIALIZING = 0
-    TRACKING = 1
-    LOST = 2
 
 
 @dataclass(frozen=True)
 class TrackerConfig:
-    """Everything the tracking loop needs."""
+    """Everything the model fit needs."""
 
     solver: str = param('lm', 'Levenberg-Marquardt (the method) or PSO (the HOPE baseline)',
                         choices=('lm', 'pso'))
@@ -65,22 +51,37 @@ class TrackerConfig:
     lm: LMConfig = nested(LMConfig)
     pso: PSOConfig = nested(PSOConfig)
     terms: TermsConfig = nested(TermsConfig)
-    failure: FailureConfig = nested(FailureConfig)
 
 
 @dataclass(frozen=True, eq=False)
-class TrackResult:
-    """The estimate of one frame."""
+class Fit:
+    """The model fitted to one frame set from one start.
 
-    stamp_ns: int
-    status: TrackStatus
-    theta: FloatArray                  # (P,)
+    Attributes
+    ----------
+    theta : (P,) float64
+        The estimate (m, rad; :mod:`hand_tracker_ros.model.layout`).
+    posed : PosedHand
+        The model posed at ``theta``.
+    views : tuple of ModelView
+        Its rendering in every camera.
+    iterations : int
+        LM iterations over all rounds and separation rounds.
+    energy_costs : dict of str to float
+        ``0.5 * w * |r|^2`` per term at the estimate, with the last round's correspondences.
+    labels : tuple
+        Per camera: detection -> finger (-1 unassigned), from the salient term.
+    timings_s : dict of str to float
+        Wall time of each stage (s).
+    """
+
+    theta: FloatArray
     posed: PosedHand
-    iterations: int                    # LM iterations over all rounds
-    energy_costs: dict[str, float]     # 0.5 * w * |r|^2 per term at the estimate
-    silhouette_coverage: float         # mean fraction of the model silhouette on foreground
+    views: tuple[ModelView, ...]
+    iterations: int
+    energy_costs: dict[str, float]
+    labels: tuple[Any, ...] = ()
     timings_s: dict[str, float] = field(default_factory=dict)
-    labels: tuple[Any, ...] = ()       # per camera: detection -> finger (-1 unassigned)
 
 
 class HandTracker:
@@ -96,7 +97,6 @@ class HandTracker:
         self._separator = Separator(model, self._terms, config.separation, self._lm_config())
         self._rounds = rounds(config.schedule)
         self._previous: PreviousFrame | None = None
-        self._lost_frames = 0
 
     @property
     def initialized(self) -> bool:
@@ -109,7 +109,6 @@ class HandTracker:
 
     def reset(self, theta: FloatArray | None = None) -> None:
         """Forget the history; start from ``theta`` (or wait for an initialization)."""
-        self._lost_frames = 0
         if theta is None:
             self._previous = None
             return
@@ -170,29 +169,38 @@ class HandTracker:
                         ftol=lm.ftol, xtol=lm.xtol, max_mean_step_rad=lm.max_mean_step_rad,
                         max_damping=lm.max_damping)
 
-    def track(self, observations: FrameObservations) -> TrackResult:
-        """Fit the model to one frame set; the tracker must be initialized (see ``reset``)."""
+    def fit(self, observations: FrameObservations, start: FloatArray | None = None, *,
+            plan: Sequence[Round] | None = None, separate: bool = True) -> Fit:
+        """Fit the model to one frame set from ``start`` (default: the previous estimate).
+
+        ``plan`` replaces the configured rounds (e.g. one short round to rank hypotheses);
+        ``separate=False`` skips the separation rounds. The tracker's history is not changed:
+        :meth:`accept` makes a fit the previous frame of the next one. Requires a history
+        (``reset``), which the flow and temporal terms read.
+        """
         if self._previous is None:
-            msg = 'tracker is not initialized: call reset(theta) or initialize first'
+            msg = 'tracker is not initialized: call reset(theta) first'
             raise RuntimeError(msg)
-        start = time.perf_counter()
+        begin = time.perf_counter()
         timings: dict[str, float] = {}
-        theta = self._previous.thetas[-1].copy()
+        theta = (self._previous.thetas[-1] if start is None
+                 else np.clip(np.asarray(start, np.float64), self.model.lower, self.model.upper))
+        theta = theta.copy()
         iterations = 0
         problem, correspondences = None, ()
         if self.config.solver == 'pso':
             theta, iterations, problem, correspondences = self._solve_pso(theta, observations,
                                                                          timings)
-        # The first round starts at the previous estimate, whose views are already rendered.
-        start_views: tuple[ModelView, ...] | None = self._previous.views
+        # A round that starts at the previous estimate reuses its rendered views.
+        start_views = self._previous.views if start is None else None
         collisions: CollisionPairs | None = None     # the frame's constraints so far
-        for rnd in self._rounds if self.config.solver == 'lm' else ():
+        for rnd in (self._rounds if plan is None else plan) if self.config.solver == 'lm' else ():
             theta, n_iter, problem, correspondences = self._solve_round(
                 theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions)
             collisions = dict(zip(problem.names, correspondences)).get('collision')
             start_views = None
             iterations += n_iter
-        if self.config.solver == 'lm':
+        if self.config.solver == 'lm' and separate:
             t0 = time.perf_counter()
             separated = self._separator.separate(theta, collisions)
             timings['separation'] = time.perf_counter() - t0
@@ -201,28 +209,24 @@ class HandTracker:
         else:
             posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
+        t0 = time.perf_counter()
         views = self.views(posed)
-        coverage = silhouette_coverage(views, observations)
-        healthy = (bool(np.all(np.isfinite(theta)))
-                   and coverage >= self.config.failure.min_coverage)
-        costs = problem.costs(theta, correspondences)
+        timings['views'] = timings.get('views', 0.0) + time.perf_counter() - t0
         labels = tuple(getattr(c, 'labels', ()) for c in correspondences
                        if hasattr(c, 'labels'))
-        if healthy:
-            self._lost_frames = 0
-            history = np.vstack([self._previous.thetas, theta[None]])[-2:]
-            self._previous = PreviousFrame(posed, views, history)
-            status = TrackStatus.TRACKING
-        else:
-            self._lost_frames += 1
-            status = TrackStatus.LOST
-            LOG.warning('frame %d lost (silhouette coverage %.2f)', observations.stamp_ns,
-                        coverage)
-        timings['total'] = time.perf_counter() - start
-        return TrackResult(observations.stamp_ns, status, theta, posed, iterations, costs, coverage,
-                           timings, labels)
+        costs = problem.costs(theta, correspondences)
+        timings['fit'] = time.perf_counter() - begin
+        return Fit(theta, posed, views, iterations, costs, labels, timings)
+
+    def accept(self, fit: Fit) -> None:
+        """Make ``fit`` the previous frame of the next fit (the temporal history grows)."""
+        assert self._previous is not None
+        history = np.vstack([self._previous.thetas, fit.theta[None]])[-2:]
+        self._previous = PreviousFrame(fit.posed, fit.views, history)
 
     @property
-    def lost_frames(self) -> int:
-        """Consecutive frames judged lost."""
-        return self._lost_frames
+    def history(self) -> FloatArray:
+        """The accepted estimates, oldest first, (K, P) with K <= 2; (0, P) before a reset."""
+        if self._previous is None:
+            return np.zeros((0, Layout.P))
+        return self._previous.thetas

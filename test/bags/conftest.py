@@ -42,7 +42,7 @@ def hand_state(stamp_ns: int, i: int) -> convert.HandStateValues:
     rng = np.random.default_rng(100 + i)
     names, positions = joints(i)
     return convert.HandStateValues(
-        stamp_ns=stamp_ns, frame_id='world', status=1, joint_names=names,
+        stamp_ns=stamp_ns, frame_id='world', status=1, confidence=0.75, joint_names=names,
         joint_positions=positions, keypoint_names=tuple(f'kp{k}' for k in range(21)),
         keypoints_m=rng.normal(size=(21, 3)), fingertips_m=rng.normal(size=(5, 3)),
         shape_names=('scale',), shape_parameters=np.array([1.05]),

@@ -17,7 +17,7 @@ from hand_tracker_ros.errors import BagFormatError
 HAND_STATE = 'hand_tracker_msgs/msg/HandState'
 # Pinned on purpose: a change means the wire type changed, so recorded bags and running nodes
 # built from the old .msg files no longer match. Update it only together with the .msg edit.
-HAND_STATE_RIHS01 = 'RIHS01_77baaf30dc8407e2564f0217ded20ee7dd3cbc033eed76662e805759ec345097'
+HAND_STATE_RIHS01 = 'RIHS01_269f70e01c144d5ab45ba0d3ce2b810ae9a1ce1029676e6c8f764c111f1b6988'
 
 
 def test_typestore_is_cached_and_has_our_types():

@@ -9,7 +9,7 @@ from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.node_config import NEUTRAL_POSE
 from hand_tracker_ros.tracking.overlay import KEYPOINT_PARENTS, draw_overlay
-from hand_tracker_ros.tracking.tracker import TrackResult, TrackStatus
+from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 
 pytestmark = pytest.mark.ros
 STAMP_NS = 1_700_000_123_456_789_012
@@ -44,6 +44,7 @@ def test_joint_and_hand_state_carry_the_estimate(hand_model) -> None:
     assert len(state.shape_names) == len(state.shape_parameters) == 19
     assert dict(zip(state.energy_names, state.energy_costs)) == {'edges': 1.5, 'collision': 0.25}
     assert state.iterations == 17 and state.processing_time == pytest.approx(0.125)
+    assert state.confidence == pytest.approx(0.8)
     lost = outputs.hand_state_msg(_result(hand_model, TrackStatus.LOST), hand_model, 'map', 0.0)
     assert lost.status == lost.STATUS_LOST and len(lost.joint_positions) == len(PARAM_NAMES)
 
@@ -94,8 +95,8 @@ def test_diagnostics_report_rates_counters_and_status() -> None:
     health = outputs.TrackerHealth(
         period_s=2.0, frames={'cam0': 6, 'cam1': 4}, camera_problems={'cam1': 'cam1: silent'},
         assembler_counts={'cam0': {'frames': 6}}, sync=sync.stats, processed=2, skipped=1,
-        latencies_s=[0.1, 0.3], processing_s=[0.05], iterations=[10, 20], status=TrackStatus.LOST,
-        reinitializations=0)
+        latencies_s=[0.1, 0.3], processing_s=[0.05], iterations=[10, 20],
+        confidence=[0.9, 0.2], status=TrackStatus.LOST, reinitializations=0)
     msg = outputs.diagnostics_msg('tracker', health, STAMP_NS)
     cam0, cam1, tracking = msg.status
     values = {s.name: {kv.key: kv.value for kv in s.values} for s in msg.status}
@@ -109,6 +110,8 @@ def test_diagnostics_report_rates_counters_and_status() -> None:
     assert values['tracker: tracking']['processing_mean_ms'] == '50.0'
     assert values['tracker: tracking']['emitted_sets'] == '2'
     assert values['tracker: tracking']['skipped_sets'] == '1'
+    assert values['tracker: tracking']['confidence_last'] == '0.200'
+    assert values['tracker: tracking']['confidence_min'] == '0.200'
 
 
 def _image(pixels: np.ndarray, encoding: str, stamp_ns: int = 5):

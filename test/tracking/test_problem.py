@@ -19,7 +19,7 @@ def _rounds_of_one_frame(hand_model, monkeypatch):
     sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=2), hand_model)
     frames = [sequence.frame(k) for k in range(2)]
     pipeline = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())
-    pipeline.tracker.reset(frames[0].theta)
+    pipeline.session.reset(frames[0].theta)
     pipeline.observe(FrameSet(frames[0].stamp_ns, frames[0].images))
     captured = []
     solve = tracker_module.HandTracker._solve_round

@@ -9,7 +9,7 @@ from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.schedule import ScheduleConfig, rounds
-from hand_tracker_ros.tracking.tracker import TrackStatus
+from hand_tracker_ros.tracking.result import TrackStatus
 
 
 def _error_mm(result, frame) -> float:
@@ -26,7 +26,7 @@ def grasp(hand_model):
 def test_tracker_follows_a_synthetic_grasp(hand_model, grasp) -> None:
     sequence, frames = grasp
     pipeline = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())
-    pipeline.tracker.reset(frames[0].theta)
+    pipeline.session.reset(frames[0].theta)
     pipeline.observe(FrameSet(frames[0].stamp_ns, frames[0].images))
     results = [pipeline.step(FrameSet(f.stamp_ns, f.images)) for f in frames[1:]]
     pipeline.close()
@@ -49,7 +49,7 @@ def test_pipelined_run_gives_the_estimates_of_step_by_step(hand_model, grasp) ->
     thetas, events = {}, []
     for mode in ('step', 'run'):
         pipeline = OfflinePipeline(hand_model, sequence.rig, config)
-        pipeline.tracker.reset(frames[0].theta)
+        pipeline.session.reset(frames[0].theta)
         pipeline.observe(sets[0])
         if mode == 'step':
             results = [pipeline.step(s) for s in sets[1:]]
@@ -70,7 +70,7 @@ def test_perturbed_start_converges(hand_model, grasp) -> None:
     start = frames[3].theta.copy()
     start[:3] += (0.008, -0.006, 0.005)
     start[10:14] += 0.15                          # index finger off by ~9 degrees
-    pipeline.tracker.reset(start)
+    pipeline.session.reset(start)
     before = 1e3 * np.linalg.norm(hand_model.pose(start, jacobian=False).keypoints_m
                                   - frames[3].keypoints_m, axis=1).mean()
     result = None
@@ -85,10 +85,10 @@ def test_a_hand_far_from_the_model_is_reported_lost(hand_model, grasp) -> None:
     pipeline = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())
     wrong = frames[0].theta.copy()
     wrong[:3] += (0.15, 0.0, 0.1)                 # 18 cm away: no overlap with the hand
-    pipeline.tracker.reset(wrong)
+    pipeline.session.reset(wrong)
     result = pipeline.step(FrameSet(frames[1].stamp_ns, frames[1].images))
     pipeline.close()
-    assert result.status == TrackStatus.LOST and pipeline.tracker.lost_frames == 1
+    assert result.status == TrackStatus.LOST and pipeline.session.lost_frames == 1
 
 
 def test_pso_solver_runs_on_the_same_objective(hand_model, grasp) -> None:
@@ -96,7 +96,7 @@ def test_pso_solver_runs_on_the_same_objective(hand_model, grasp) -> None:
     config = from_mapping(PipelineConfig, {'tracker.solver': 'pso', 'tracker.pso.particles': 8,
                                            'tracker.pso.generations': 3})
     pipeline = OfflinePipeline(hand_model, sequence.rig, config)
-    pipeline.tracker.reset(frames[0].theta)
+    pipeline.session.reset(frames[0].theta)
     result = pipeline.step(FrameSet(frames[1].stamp_ns, frames[1].images))
     pipeline.close()
     assert result.iterations == 2 * 8 * 3 and _error_mm(result, frames[1]) < 15.0
@@ -132,7 +132,7 @@ def test_separation_rounds_separate_fingers_the_schedule_left_intersecting(hand_
             'tracker.schedule.coarse_rounds': 0, 'tracker.schedule.full_rounds': 1,
             'tracker.schedule.iterations': 3, 'tracker.separation.rounds': extra})
         pipeline = OfflinePipeline(hand_model, sequence.rig, config)
-        pipeline.tracker.reset(start)
+        pipeline.session.reset(start)
         result = pipeline.step(FrameSet(frame.stamp_ns, frame.images))
         pipeline.close()
         left.append(n_pairs(result.posed.vertices_m))

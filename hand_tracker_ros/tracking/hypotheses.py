@@ -1,0 +1,61 @@
+"""Start poses for a frame besides the previous estimate: prediction and turned hands.
+
+- **Constant velocity**: ``theta_t = theta_{t-1} + (theta_{t-1} - theta_{t-2})``, clipped to
+  the joint limits, from the last two accepted estimates.
+- **Turned**: the hand turned as a whole about its own axes (the finger axis +y and the palm
+  normal +z of the hand frame, :mod:`hand_tracker_ros.model.layout`) around the centroid of
+  its keypoints, so it stays where the data is. The global rotation is
+  ``R = Ry(hand_ry) Rz(hand_rz) Rx(hand_rx)``; a turn by ``T`` in the hand frame is
+  ``R' = R T``, split back into the three hinges with
+  :func:`hand_tracker_ros.geometry.rotations.euler_xzy_from_matrix` on ``R'^T``
+  (``R'^T = Rx(-rx) Rz(-rz) Ry(-ry)``). A palm flipped about the finger axis is the typical
+  wrong basin of a silhouette fit: the outline barely changes while the thumb moves to the
+  other side.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.geometry.rotations import euler_xzy_from_matrix, rot_x, rot_y, rot_z
+from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.model.layout import Layout
+
+_RY, _RZ, _RX = (Layout.index(n) for n in ('hand_ry', 'hand_rz', 'hand_rx'))
+
+# Turns tried by recovery (hand frame): name -> rotation matrix.
+TURNS: dict[str, FloatArray] = {
+    'flip_finger_axis': rot_y(np.pi),
+    'quarter_finger_axis+': rot_y(0.5 * np.pi),
+    'quarter_finger_axis-': rot_y(-0.5 * np.pi),
+    'flip_palm_normal': rot_z(np.pi),
+}
+
+
+def constant_velocity(history: FloatArray, model: HandModel) -> FloatArray:
+    """The next pose at constant velocity from ``history`` (K, P), oldest first; K >= 1."""
+    if history.shape[0] < 2:
+        return history[-1].copy()
+    return np.clip(2.0 * history[-1] - history[-2], model.lower, model.upper)
+
+
+def hand_rotation(theta: FloatArray) -> FloatArray:
+    """``R = Ry(hand_ry) Rz(hand_rz) Rx(hand_rx)`` (3, 3) of a pose."""
+    return rot_y(theta[_RY]) @ rot_z(theta[_RZ]) @ rot_x(theta[_RX])
+
+
+def turned(theta: FloatArray, turn: FloatArray, model: HandModel) -> FloatArray:
+    """``theta`` with the hand turned by ``turn`` (3, 3, hand frame) about its keypoint centroid."""
+    out = np.array(theta, np.float64)
+    centre = model.pose(out, jacobian=False).keypoints_m.mean(axis=0)
+    neg_rx, neg_rz, neg_ry = euler_xzy_from_matrix((hand_rotation(out) @ turn).T)
+    out[_RY], out[_RZ], out[_RX] = -neg_ry, -neg_rz, -neg_rx
+    out = np.clip(out, model.lower, model.upper)
+    moved = model.pose(out, jacobian=False).keypoints_m.mean(axis=0)
+    out[Layout.translation] += centre - moved
+    return out
+
+
+def turned_hypotheses(theta: FloatArray, model: HandModel) -> dict[str, FloatArray]:
+    """Every turn of :data:`TURNS` applied to ``theta``."""
+    return {name: turned(theta, turn, model) for name, turn in TURNS.items()}

@@ -1,0 +1,64 @@
+"""What the tracking session reports for one frame set: status, estimate and confidence.
+
+These are the values that cross into the ROS adapters (``HandState``, ``JointState``,
+markers, ``/diagnostics``) and into the offline estimates bags, so they live below both.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Any
+
+from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.model.hand import PosedHand
+
+
+class TrackStatus(IntEnum):
+    """Matches ``hand_tracker_msgs/HandState`` STATUS_* constants."""
+
+    INITIALIZING = 0
+    TRACKING = 1
+    LOST = 2
+
+
+@dataclass(frozen=True, eq=False)
+class TrackResult:
+    """The estimate of one frame set.
+
+    Attributes
+    ----------
+    stamp_ns : int
+        Stamp of the input set (ns).
+    status : TrackStatus
+        TRACKING when the estimate is trusted, LOST otherwise (:mod:`.session`).
+    theta : (P,) float64
+        Pose parameters (m, rad).
+    posed : PosedHand
+        The model posed at ``theta``.
+    iterations : int
+        LM iterations spent on the set, recovery included.
+    energy_costs : dict of str to float
+        ``0.5 * w * |r|^2`` per term at the estimate.
+    confidence : float
+        Probability in [0, 1] that the estimate is right (:mod:`.evidence`).
+    evidence : dict of str to float
+        The image evidence the confidence was computed from.
+    timings_s : dict of str to float
+        Wall time of each stage (s); ``total`` is the latency of the set.
+    labels : tuple
+        Per camera: detection -> finger (-1 unassigned).
+    recovered_from : str
+        The hypothesis the estimate came from when recovery ran (empty otherwise).
+    """
+
+    stamp_ns: int
+    status: TrackStatus
+    theta: FloatArray
+    posed: PosedHand
+    iterations: int
+    energy_costs: dict[str, float]
+    confidence: float
+    evidence: dict[str, float] = field(default_factory=dict)
+    timings_s: dict[str, float] = field(default_factory=dict)
+    labels: tuple[Any, ...] = ()
+    recovered_from: str = ''

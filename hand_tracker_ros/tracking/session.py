@@ -1,0 +1,226 @@
+"""The tracking session: one policy for initialising, tracking, failure and recovery.
+
+The offline pipeline and the tracker node both drive a :class:`TrackingSession`, so a bag
+tracked offline and the same bag played through the graph follow the same rules:
+
+1. **Start.** Without a history the session finds the hand: from ``initial_pose`` when one is
+   given, otherwise by the global search over the observations (:mod:`.initialize`).
+2. **Track.** The frame is fitted from the constant-velocity prediction of the last two
+   accepted estimates (:mod:`.hypotheses`; ``predict``), or from the last estimate.
+3. **Judge.** The fit's image evidence gives a confidence in [0, 1] (:mod:`.evidence`).
+4. **Recover locally** when the confidence is below ``failure.recover_below``: the frame is
+   fitted again, one short round each, from the previous estimate and from the hand turned
+   about its own axes (palm flips, quarter turns; of the new fit and of the last estimate the
+   session trusted); the most confident of them gets the full schedule and replaces the fit
+   if it is more confident. This costs time only on doubtful frames.
+5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
+   ``failure.lost_below``: the initialisation runs again on the current frame.
+6. **Report.** The frame is TRACKING when the kept fit's confidence is at least
+   ``failure.lost_below``, LOST otherwise. The kept fit is the next frame's start either way
+   (a LOST frame can still be the best guess there is), and the last TRACKING estimate stays a
+   recovery start.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
+from hand_tracker_ros.tracking.hypotheses import constant_velocity, turned_hypotheses
+from hand_tracker_ros.tracking.initialize import InitConfig, initialize
+from hand_tracker_ros.tracking.observations import FrameObservations
+from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
+from hand_tracker_ros.tracking.schedule import QUICK
+from hand_tracker_ros.tracking.tracker import Fit, HandTracker
+
+LOG = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class FailureConfig:
+    """When a frame is doubted, lost, and when the hand is searched for again."""
+
+    lost_below: float = param(0.5, 'a fit less confident than this is LOST', low=0.0,
+                              high=1.0)
+    recover_below: float = param(0.9, 'a fit less confident than this tries the recovery '
+                                 'hypotheses', low=0.0, high=1.0)
+    reinit_after: int = param(3, 'consecutive LOST frames before the global search',
+                              low=1, high=1000)
+
+
+@dataclass(frozen=True)
+class SessionConfig:
+    """The tracking session's policy."""
+
+    predict: bool = param(True, 'start each frame from the constant-velocity prediction')
+    recovery: bool = param(True, 'refit doubtful frames from the recovery hypotheses')
+    failure: FailureConfig = nested(FailureConfig)
+    evidence: EvidenceConfig = nested(EvidenceConfig)
+    init: InitConfig = nested(InitConfig)
+
+
+@dataclass(frozen=True, eq=False)
+class _Judged:
+    """A fit with its evidence and confidence."""
+
+    name: str
+    fit: Fit
+    evidence: dict[str, float]
+    confidence: float
+
+
+class TrackingSession:
+    """Tracks one hand through a sequence of frame sets with :class:`HandTracker`.
+
+    ``initial_pose`` (P,) replaces the global search at the start and after losses. With
+    ``search=False`` the session never searches: the caller resets it (the evaluation's
+    ground-truth protocol) and :attr:`lost_frames` says when.
+    """
+
+    def __init__(self, tracker: HandTracker, config: SessionConfig = SessionConfig(), *,
+                 initial_pose: FloatArray | None = None, search: bool = True) -> None:
+        self.tracker = tracker
+        self.config = config
+        self._initial = None if initial_pose is None else np.asarray(initial_pose, np.float64)
+        self._search = search
+        self._lost = 0
+        self._trusted: FloatArray | None = None
+        self.restarts = 0
+        """Starts (initial pose or search) after a loss, since construction."""
+
+    @property
+    def initialized(self) -> bool:
+        """True once the session has a pose to start from."""
+        return self.tracker.initialized
+
+    @property
+    def lost_frames(self) -> int:
+        """Consecutive LOST frames."""
+        return self._lost
+
+    def reset(self, theta: FloatArray | None = None) -> None:
+        """Forget everything; start from ``theta``, or search on the next frame."""
+        self.tracker.reset(theta)
+        self._lost = 0
+        self._trusted = None if theta is None else np.asarray(theta, np.float64).copy()
+
+    def step(self, observations: FrameObservations) -> TrackResult:
+        """Track one frame set (module docstring). Raises ``HandTrackerError`` when no hand
+        can be found to start from (e.g. fewer than two cameras see foreground)."""
+        start = time.perf_counter()
+        timings: dict[str, float] = {}
+        if not self.tracker.initialized:
+            self._start(observations, timings)
+        judged = self._judge('previous', self._fit(observations, self._prediction(), timings),
+                             observations)
+        iterations = judged.fit.iterations
+        failure = self.config.failure
+        if self.config.recovery and judged.confidence < failure.recover_below:
+            t0 = time.perf_counter()
+            judged, spent = self._recover(judged, observations, timings)
+            iterations += spent
+            timings['recovery'] = time.perf_counter() - t0
+        if (judged.confidence < failure.lost_below and self._lost + 1 >= failure.reinit_after
+                and self._can_start):
+            t0 = time.perf_counter()
+            self._start(observations, timings)
+            self.restarts += 1
+            searched = self._judge('search', self._fit(observations, None, timings),
+                                   observations)
+            iterations += searched.fit.iterations
+            timings['search'] = time.perf_counter() - t0
+            if searched.confidence > judged.confidence:
+                judged = searched
+        status = self._settle(judged)
+        timings['total'] = time.perf_counter() - start
+        fit = judged.fit
+        return TrackResult(observations.stamp_ns, status, fit.theta, fit.posed, iterations,
+                           fit.energy_costs, judged.confidence, judged.evidence, timings,
+                           fit.labels, '' if judged.name == 'previous' else judged.name)
+
+    @property
+    def _can_start(self) -> bool:
+        return self._initial is not None or self._search
+
+    def _start(self, observations: FrameObservations, timings: dict[str, float]) -> None:
+        """Reset the tracker to ``initial_pose`` or to the global search's pose."""
+        t0 = time.perf_counter()
+        if self._initial is not None:
+            self.tracker.reset(self._initial)
+        elif self._search:
+            initialize(self.tracker, observations, self.config.init,
+                       score=lambda fit: self._judge('search', fit, observations).confidence)
+        else:
+            msg = 'the session is not initialized and may not search: call reset(theta)'
+            raise RuntimeError(msg)
+        timings['initialize'] = timings.get('initialize', 0.0) + time.perf_counter() - t0
+
+    def _prediction(self) -> FloatArray | None:
+        """The start of the frame's fit: None for the last estimate itself."""
+        history = self.tracker.history
+        if not self.config.predict or history.shape[0] < 2:
+            return None
+        return constant_velocity(history, self.tracker.model)
+
+    def _fit(self, observations: FrameObservations, start: FloatArray | None,
+             timings: dict[str, float]) -> Fit:
+        fit = self.tracker.fit(observations, start)
+        for key, value in fit.timings_s.items():
+            timings[key] = timings.get(key, 0.0) + value
+        return fit
+
+    def _judge(self, name: str, fit: Fit, observations: FrameObservations) -> _Judged:
+        evidence = measure(fit.views, observations, fit.posed.fingertips_m,
+                           self.config.evidence)
+        if not np.all(np.isfinite(fit.theta)):
+            return _Judged(name, fit, evidence, 0.0)
+        return _Judged(name, fit, evidence, confidence(evidence, self.config.evidence))
+
+    def _recover(self, first: _Judged, observations: FrameObservations,
+                 timings: dict[str, float]) -> tuple[_Judged, int]:
+        """The most confident of ``first`` and the fits from the recovery hypotheses.
+
+        Each hypothesis gets one short round (:data:`.schedule.QUICK`); only the most confident of them
+        is then fitted with the full schedule, and it replaces ``first`` if it is more
+        confident.
+        """
+        model = self.tracker.model
+        starts: dict[str, FloatArray] = {'last': self.tracker.history[-1]}
+        starts.update(turned_hypotheses(first.fit.theta, model))
+        if self._trusted is not None:
+            starts['trusted'] = self._trusted
+            starts.update({f'trusted_{k}': v
+                           for k, v in turned_hypotheses(self._trusted, model).items()})
+        quick, spent = None, 0
+        for name, theta in starts.items():
+            fit = self.tracker.fit(observations, theta, plan=QUICK, separate=False)
+            spent += fit.iterations
+            candidate = self._judge(name, fit, observations)
+            if quick is None or candidate.confidence > quick.confidence:
+                quick = candidate
+        assert quick is not None
+        refined = self._judge(quick.name, self._fit(observations, quick.fit.theta, timings),
+                              observations)
+        spent += refined.fit.iterations
+        return (refined if refined.confidence > first.confidence else first), spent
+
+    def _settle(self, judged: _Judged) -> TrackStatus:
+        """Keep ``judged`` as the next frame's start and decide the frame's status."""
+        if judged.name == 'previous':
+            self.tracker.accept(judged.fit)
+        else:
+            # Another basin: the velocity of the old history does not apply to it.
+            self.tracker.reset(judged.fit.theta)
+        if judged.confidence >= self.config.failure.lost_below:
+            self._lost = 0
+            self._trusted = judged.fit.theta.copy()
+            return TrackStatus.TRACKING
+        self._lost += 1
+        LOG.debug('frame lost (confidence %.2f, %d in a row)', judged.confidence, self._lost)
+        return TrackStatus.LOST
+
