@@ -11,10 +11,10 @@ import sys
 from collections.abc import Sequence
 
 from hand_tracker_ros.cli import (demo, evaluate, launch, params, play, record, replay_eval,
-                                  synth, track, train_detector)
+                                  robustness, synth, track, train_detector)
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (demo, evaluate, launch, params, play, record, replay_eval, synth, track,
+VERBS = (demo, evaluate, launch, params, play, record, replay_eval, robustness, synth, track,
          train_detector)
 
 
