@@ -1,0 +1,50 @@
+"""Start hypotheses: constant-velocity prediction and hands turned about their own axes."""
+from __future__ import annotations
+
+import numpy as np
+
+from hand_tracker_ros.geometry.rotations import rot_y, rot_z
+from hand_tracker_ros.tracking.hypotheses import (TURNS, constant_velocity, hand_rotation,
+                                                  turned, turned_hypotheses)
+
+
+def _theta(model):
+    theta = model.neutral_theta((0.01, -0.05, 0.02))
+    theta[3:6] = (0.2, -1.3, 0.4)             # rz, ry, rx: a generic orientation
+    return theta
+
+
+def test_a_turn_rotates_the_hand_in_its_own_frame_about_its_centre(hand_model) -> None:
+    theta = _theta(hand_model)
+    centre = hand_model.pose(theta, jacobian=False).keypoints_m.mean(axis=0)
+    for turn in (rot_y(np.pi), rot_y(0.5 * np.pi), rot_z(np.pi)):
+        out = turned(theta, turn, hand_model)
+        np.testing.assert_allclose(hand_rotation(out), hand_rotation(theta) @ turn, atol=1e-9)
+        np.testing.assert_allclose(hand_model.pose(out, jacobian=False).keypoints_m.mean(axis=0),
+                                   centre, atol=1e-9)
+        np.testing.assert_array_equal(out[6:], theta[6:])       # the fingers do not move
+
+
+def test_a_flip_about_the_finger_axis_moves_the_thumb_to_the_other_side(hand_model) -> None:
+    theta = _theta(hand_model)
+    flipped = turned_hypotheses(theta, hand_model)['flip_finger_axis']
+    before = hand_model.pose(theta, jacobian=False).fingertips_m[0]
+    after = hand_model.pose(flipped, jacobian=False).fingertips_m[0]
+    assert np.linalg.norm(after - before) > 0.03
+    back = turned(flipped, rot_y(np.pi), hand_model)
+    np.testing.assert_allclose(hand_rotation(back), hand_rotation(theta), atol=1e-9)
+    assert set(turned_hypotheses(theta, hand_model)) == set(TURNS)
+
+
+def test_constant_velocity_extrapolates_and_stays_in_the_limits(hand_model) -> None:
+    a, b = _theta(hand_model), _theta(hand_model)
+    b[0] += 0.01
+    b[10] += 0.1
+    np.testing.assert_allclose(constant_velocity(np.stack([a, b]), hand_model)[[0, 10]],
+                               [a[0] + 0.02, a[10] + 0.2])
+    np.testing.assert_array_equal(constant_velocity(b[None], hand_model), b)
+    far = b.copy()
+    far[10] = hand_model.upper[10]
+    past = far.copy()
+    past[10] -= 0.5
+    assert constant_velocity(np.stack([past, far]), hand_model)[10] == hand_model.upper[10]

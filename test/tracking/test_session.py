@@ -1,0 +1,93 @@
+"""The tracking session: confidence from the image evidence, recovery, LOST and search."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hand_tracker_ros.config import from_mapping
+from hand_tracker_ros.pipeline.frames import FrameSet
+from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
+from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
+from hand_tracker_ros.tracking.hypotheses import turned_hypotheses
+from hand_tracker_ros.tracking.result import TrackStatus
+
+
+def _error_mm(result, frame) -> float:
+    return 1e3 * float(np.linalg.norm(result.posed.keypoints_m - frame.keypoints_m,
+                                      axis=1).mean())
+
+
+@pytest.fixture(scope='module')
+def scene(hand_model):
+    sequence = SyntheticSequence(SynthConfig(motion='random', n_frames=8, seed=2), hand_model)
+    return sequence, [sequence.frame(k) for k in range(8)]
+
+
+def _pipeline(hand_model, sequence, **values) -> OfflinePipeline:
+    return OfflinePipeline(hand_model, sequence.rig, from_mapping(PipelineConfig, values))
+
+
+def test_confidence_is_high_on_the_truth_and_low_on_a_flipped_hand(hand_model, scene) -> None:
+    sequence, frames = scene
+    pipeline = _pipeline(hand_model, sequence)
+    observations, _ = pipeline.observe(FrameSet(frames[0].stamp_ns, frames[0].images))
+    pipeline.close()
+    config = EvidenceConfig()
+    flipped = turned_hypotheses(frames[0].theta, hand_model)['flip_finger_axis']
+    judged = {}
+    for name, theta in (('truth', frames[0].theta), ('flipped', flipped)):
+        posed = hand_model.pose(theta, jacobian=False)
+        evidence = measure(pipeline.tracker.views(posed), observations, posed.fingertips_m,
+                           config)
+        assert all(0.0 <= v <= 1.0 for v in evidence.values())
+        judged[name] = (evidence, confidence(evidence, config))
+    assert judged['truth'][1] > 0.9 > 0.1 > judged['flipped'][1]
+    assert judged['truth'][0]['edge_coverage'] > judged['flipped'][0]['edge_coverage']
+    assert confidence({**judged['truth'][0], 'coverage': float('nan')}, config) == 0.0
+
+
+def test_too_few_detections_give_the_tip_prior(hand_model, scene) -> None:
+    sequence, frames = scene
+    pipeline = _pipeline(hand_model, sequence, use_detector=False)
+    observations, _ = pipeline.observe(FrameSet(frames[0].stamp_ns, frames[0].images))
+    pipeline.close()
+    posed = hand_model.pose(frames[0].theta, jacobian=False)
+    config = EvidenceConfig(tip_prior=0.37)
+    evidence = measure(pipeline.tracker.views(posed), observations, posed.fingertips_m, config)
+    assert evidence['tip_agreement'] == 0.37
+
+
+@pytest.mark.slow
+def test_a_flipped_start_is_recovered_on_the_same_frame(hand_model, scene) -> None:
+    sequence, frames = scene
+    pipeline = _pipeline(hand_model, sequence)
+    pipeline.observe(FrameSet(frames[0].stamp_ns, frames[0].images))
+    pipeline.session.reset(turned_hypotheses(frames[0].theta, hand_model)['flip_finger_axis'])
+    result = pipeline.step(FrameSet(frames[1].stamp_ns, frames[1].images))
+    pipeline.close()
+    assert result.recovered_from and 'recovery' in result.timings_s
+    assert result.status == TrackStatus.TRACKING and result.confidence >= 0.5
+    assert _error_mm(result, frames[1]) < 10.0
+
+
+@pytest.mark.slow
+def test_a_lost_hand_is_reported_lost_then_found_by_the_search(hand_model, scene) -> None:
+    sequence, frames = scene
+    pipeline = _pipeline(hand_model, sequence, **{'session.failure.reinit_after': 2})
+    wrong = frames[0].theta.copy()
+    wrong[:3] += (0.15, 0.0, 0.1)                 # 18 cm away: no overlap with the hand
+    pipeline.session.reset(wrong)
+    results = [pipeline.step(FrameSet(f.stamp_ns, f.images)) for f in frames[1:4]]
+    pipeline.close()
+    assert results[0].status == TrackStatus.LOST and pipeline.session.restarts == 1
+    assert 'search' in results[1].timings_s and results[1].status == TrackStatus.TRACKING
+    assert results[2].status == TrackStatus.TRACKING and _error_mm(results[2], frames[3]) < 20.0
+
+
+def test_a_session_that_may_not_search_must_be_reset(hand_model, scene) -> None:
+    sequence, frames = scene
+    pipeline = _pipeline(hand_model, sequence, auto_initialize=False)
+    with pytest.raises(RuntimeError, match='call reset'):
+        pipeline.step(FrameSet(frames[0].stamp_ns, frames[0].images))
+    pipeline.close()
