@@ -1,9 +1,6 @@
 """Find the hand from the observations alone: first frame and recovery after divergence.
 
-1. **Where**: each camera's foreground mask gives a centroid ``c_i``; its camera ray
-   ``o_i + s d_i`` passes near the hand. The hand centre is the least-squares point closest to
-   all rays, ``x = argmin sum_i |(I - d_i d_i^T)(x - o_i)|^2``, i.e. the solution of
-   ``(sum_i P_i) x = sum_i P_i o_i`` with ``P_i = I - d_i d_i^T``.
+1. **Where**: the centre of the visual hull of the foreground masks (:func:`locate_hand`).
 2. **How oriented**: hypotheses of the relaxed hand centred there, rotated over a grid of
    roll (about the finger axis) and pitch angles, are scored by the mean silhouette IoU of the
    rendered model with the observed masks (:func:`.evidence.silhouette_iou`).
@@ -23,6 +20,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.ndimage
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
@@ -55,28 +53,58 @@ class InitConfig:
     min_mask_px: int = param(50, 'masks smaller than this are ignored', unit='px', low=1)
 
 
-def triangulate_mask_centroids(cameras: Sequence[PinholeCamera],
-                               masks: Sequence[np.ndarray], min_px: int) -> FloatArray:
-    """The world point closest to the rays through the mask centroids (m), shape (3,)."""
+def _view_centre(cameras: Sequence[PinholeCamera]) -> tuple[FloatArray, float]:
+    """The point closest to every optical axis (m) and the median camera distance to it (m)."""
     A, b = np.zeros((3, 3)), np.zeros(3)
-    used = 0
-    for camera, mask in zip(cameras, masks):
-        vv, uu = np.nonzero(mask)
-        if uu.size < min_px:
-            continue
-        origin, direction = camera.rays(np.array([[uu.mean(), vv.mean()]]))
-        P = np.eye(3) - np.outer(direction[0], direction[0])
+    for camera in cameras:
+        axis = camera.R_cam_world[2]                  # the optical axis in the world frame
+        P = np.eye(3) - np.outer(axis, axis)
         A += P
-        b += P @ origin
-        used += 1
-    if used < 2:
-        msg = f'cannot place the hand: only {used} camera(s) see a foreground region'
+        b += P @ camera.center_world
+    centre = np.linalg.lstsq(A, b, rcond=None)[0]
+    return centre, float(np.median([np.linalg.norm(c.center_world - centre) for c in cameras]))
+
+
+def locate_hand(cameras: Sequence[PinholeCamera], masks: Sequence[np.ndarray],
+                min_px: int, voxel_m: float = 0.01) -> FloatArray:
+    """Centre (m), shape (3,), of the largest region every camera sees as foreground.
+
+    A voxel grid (``voxel_m``) around the point the cameras look at, half as wide as their
+    median distance to it, is carved: a voxel stays when it projects onto foreground in every
+    camera with a foreground region (the visual hull of the masks). The centroid of
+    the largest connected part of what stays is the hand centre. Skin-coloured clutter in one
+    camera does not survive the others, unlike the mask centroids, which it pulls away (on
+    random-motion frames with the default clutter the centroids missed the hand by 20-55 mm).
+    """
+    used = [(c, m) for c, m in zip(cameras, masks) if np.count_nonzero(m) >= min_px]
+    if len(used) < 2:
+        msg = f'cannot place the hand: only {len(used)} camera(s) see a foreground region'
         raise HandTrackerError(msg)
-    return np.linalg.solve(A, b)
+    centre, distance = _view_centre([c for c, _ in used])
+    n = max(1, int(round(0.5 * distance / voxel_m)))
+    axis = np.arange(-n, n + 1) * voxel_m
+    grid = np.stack(np.meshgrid(axis, axis, axis, indexing='ij'), axis=-1).reshape(-1, 3) + centre
+    seen = np.zeros(len(grid), np.int32)
+    foreground = np.zeros(len(grid), np.int32)
+    for camera, mask in used:
+        uv, depth = camera.project(grid)
+        inside = (depth > 0) & np.all(np.isfinite(uv), axis=1)
+        col = np.rint(np.nan_to_num(uv[:, 0], nan=-1.0)).astype(np.intp)
+        row = np.rint(np.nan_to_num(uv[:, 1], nan=-1.0)).astype(np.intp)
+        inside &= (col >= 0) & (col < mask.shape[1]) & (row >= 0) & (row < mask.shape[0])
+        seen += inside
+        foreground[inside] += mask[row[inside], col[inside]]
+    hull = ((seen == len(used)) & (foreground == seen)).reshape((2 * n + 1,) * 3)
+    labels, count = scipy.ndimage.label(hull)
+    if count == 0:
+        msg = 'cannot place the hand: the cameras\' foreground regions do not intersect'
+        raise HandTrackerError(msg)
+    largest = 1 + int(np.argmax(scipy.ndimage.sum_labels(hull, labels, range(1, count + 1))))
+    return grid[(labels == largest).ravel()].mean(axis=0)
 
 
 def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArray]:  # noqa: ANN001
-    """Relaxed hands centred on ``center_m`` over the roll x pitch grid."""
+    """Relaxed hands over the roll x pitch grid, their mesh centroids at ``center_m``."""
     relaxed = np.zeros(Layout.P)
     for name, deg in RELAXED_DEG.items():
         relaxed[Layout.index(name)] = np.deg2rad(deg)
@@ -86,7 +114,7 @@ def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArr
             theta = relaxed.copy()
             theta[Layout.index('hand_ry')] = roll
             theta[Layout.index('hand_rx')] = pitch
-            centre = model.pose(theta, jacobian=False).keypoints_m.mean(axis=0)
+            centre = model.pose(theta, jacobian=False).vertices_m.mean(axis=0)
             theta[Layout.translation] = center_m - centre
             out.append(np.clip(theta, model.lower, model.upper))
     return out
@@ -100,7 +128,7 @@ def initialize(tracker: HandTracker, observations: FrameObservations,
     ``score`` ranks the refined hypotheses (higher is better); by default the silhouette IoU.
     """
     masks = [c.features.mask for c in observations.cameras]
-    center = triangulate_mask_centroids(tracker.cameras, masks, config.min_mask_px)
+    center = locate_hand(tracker.cameras, masks, config.min_mask_px)
     scored = []
     for theta in hypotheses(tracker.model, center, config):
         views = tracker.views(tracker.model.pose(theta, jacobian=False))

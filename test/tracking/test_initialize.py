@@ -1,4 +1,4 @@
-"""Initialization from observations: ray triangulation and the hypothesis search."""
+"""Initialization from observations: the visual hull and the hypothesis search."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,22 +9,31 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.tracking.initialize import triangulate_mask_centroids
+from hand_tracker_ros.tracking.initialize import locate_hand
 
 
-def test_triangulation_recovers_a_ball_centre() -> None:
-    rig = CameraRig.ring(3, 160, 120)
-    centre = np.array([0.02, -0.01, 0.03])
+def _ball_masks(rig, centre, radius_px=6.0):
     masks = []
     for camera in rig.cameras:
         uv, _ = camera.project(centre[None])
         vv, uu = np.mgrid[:120, :160]
-        masks.append((uu - uv[0, 0]) ** 2 + (vv - uv[0, 1]) ** 2 < 36)
-    np.testing.assert_allclose(triangulate_mask_centroids(rig.cameras, masks, 10), centre,
-                               atol=1e-3)
+        masks.append((uu - uv[0, 0]) ** 2 + (vv - uv[0, 1]) ** 2 < radius_px ** 2)
+    return masks
+
+
+def test_the_visual_hull_places_a_ball_and_ignores_clutter_in_one_camera() -> None:
+    rig = CameraRig.ring(3, 160, 120)
+    centre = np.array([0.02, -0.01, 0.03])
+    masks = _ball_masks(rig, centre)
+    np.testing.assert_allclose(locate_hand(rig.cameras, masks, 10), centre, atol=3e-3)
+    cluttered = [masks[0] | _ball_masks(rig, np.array([-0.1, 0.12, -0.05]), 15.0)[0],
+                 *masks[1:]]
+    np.testing.assert_allclose(locate_hand(rig.cameras, cluttered, 10), centre, atol=3e-3)
     with pytest.raises(HandTrackerError, match='only 1 camera'):
-        triangulate_mask_centroids(rig.cameras, [masks[0], masks[1] & False, masks[2] & False],
-                                   10)
+        locate_hand(rig.cameras, [masks[0], masks[1] & False, masks[2] & False], 10)
+    apart = [masks[0], _ball_masks(rig, np.array([0.1, 0.1, 0.0]))[1], masks[2]]
+    with pytest.raises(HandTrackerError, match='do not intersect'):
+        locate_hand(rig.cameras, apart, 10)
 
 
 @pytest.mark.slow
