@@ -90,8 +90,7 @@ class TrackingSession:
         self._search = search
         self._lost = 0
         self._trusted: FloatArray | None = None
-        self.restarts = 0
-        """Starts (initial pose or search) after a loss, since construction."""
+        self.restarts = 0     # starts (initial pose or search) after losses, in all
 
     @property
     def initialized(self) -> bool:
@@ -125,8 +124,9 @@ class TrackingSession:
             judged, spent = self._recover(judged, observations, timings)
             iterations += spent
             timings['recovery'] = time.perf_counter() - t0
-        if (judged.confidence < failure.lost_below and self._lost + 1 >= failure.reinit_after
-                and self._can_start):
+        searched_now = (judged.confidence < failure.lost_below and self._can_start
+                        and self._lost + 1 >= failure.reinit_after)
+        if searched_now:
             t0 = time.perf_counter()
             self._start(observations, timings)
             self.restarts += 1
@@ -136,7 +136,7 @@ class TrackingSession:
             timings['search'] = time.perf_counter() - t0
             if searched.confidence > judged.confidence:
                 judged = searched
-        status = self._settle(judged)
+        status = self._settle(judged, continues=judged.name == 'previous' and not searched_now)
         timings['total'] = time.perf_counter() - start
         fit = judged.fit
         return TrackResult(observations.stamp_ns, status, fit.theta, fit.posed, iterations,
@@ -209,9 +209,13 @@ class TrackingSession:
         spent += refined.fit.iterations
         return (refined if refined.confidence > first.confidence else first), spent
 
-    def _settle(self, judged: _Judged) -> TrackStatus:
-        """Keep ``judged`` as the next frame's start and decide the frame's status."""
-        if judged.name == 'previous':
+    def _settle(self, judged: _Judged, continues: bool) -> TrackStatus:
+        """Keep ``judged`` as the next frame's start and decide the frame's status.
+
+        ``continues``: the fit started from the history the tracker still holds, which it then
+        extends; otherwise the history restarts at the fit.
+        """
+        if continues:
             self.tracker.accept(judged.fit)
         else:
             # Another basin: the velocity of the old history does not apply to it.
