@@ -1,7 +1,8 @@
 """Start poses for a frame besides the previous estimate: prediction and turned hands.
 
-- **Constant velocity**: ``theta_t = theta_{t-1} + (theta_{t-1} - theta_{t-2})``, clipped to
-  the joint limits, from the last two accepted estimates.
+- **Constant velocity**: ``theta_t = theta_1 + s (theta_1 - theta_0)``, clipped to the joint
+  limits, from the last two accepted estimates ``theta_0, theta_1`` (stamps ``t_0, t_1``) with
+  ``s = (t - t_1) / (t_1 - t_0)``: 1 for consecutive sets, 2 when a live tracker skipped one.
 - **Turned**: the hand turned as a whole about its own axes (the finger axis +y and the palm
   normal +z of the hand frame, :mod:`hand_tracker_ros.model.layout`) around the centroid of
   its keypoints, so it stays where the data is. The global rotation is
@@ -32,11 +33,12 @@ TURNS: dict[str, FloatArray] = {
 }
 
 
-def constant_velocity(history: FloatArray, model: HandModel) -> FloatArray:
-    """The next pose at constant velocity from ``history`` (K, P), oldest first; K >= 1."""
+def constant_velocity(history: FloatArray, model: HandModel, steps: float = 1.0) -> FloatArray:
+    """The pose ``steps`` history intervals after the last of ``history`` (K, P), oldest first,
+    at constant velocity (K >= 1; with K = 1 the last pose)."""
     if history.shape[0] < 2:
         return history[-1].copy()
-    return np.clip(2.0 * history[-1] - history[-2], model.lower, model.upper)
+    return np.clip(history[-1] + steps * (history[-1] - history[-2]), model.lower, model.upper)
 
 
 def hand_rotation(theta: FloatArray) -> FloatArray:

@@ -6,7 +6,8 @@ tracked offline and the same bag played through the graph follow the same rules:
 1. **Start.** Without a history the session finds the hand: from ``initial_pose`` when one is
    given, otherwise by the global search over the observations (:mod:`.initialize`).
 2. **Track.** The frame is fitted from the constant-velocity prediction of the last two
-   accepted estimates (:mod:`.hypotheses`; ``predict``), or from the last estimate.
+   accepted estimates, scaled by the time since them (sets a live tracker skipped count;
+   :mod:`.hypotheses`; ``predict``), or from the last estimate.
 3. **Judge.** The fit's image evidence gives a confidence in [0, 1] (:mod:`.evidence`).
 4. **Recover locally** when the confidence is below ``failure.recover_below``: the frame is
    fitted again, one short round each, from the previous estimate and from the hand turned
@@ -90,6 +91,7 @@ class TrackingSession:
         self._search = search
         self._lost = 0
         self._trusted: FloatArray | None = None
+        self._stamps: list[int] = []    # stamps (ns) of the tracker's history, when known
         self.restarts = 0     # starts (initial pose or search) after losses, in all
 
     @property
@@ -107,6 +109,7 @@ class TrackingSession:
         self.tracker.reset(theta)
         self._lost = 0
         self._trusted = None if theta is None else np.asarray(theta, np.float64).copy()
+        self._stamps = []
 
     def step(self, observations: FrameObservations) -> TrackResult:
         """Track one frame set (module docstring). Raises ``HandTrackerError`` when no hand
@@ -115,7 +118,8 @@ class TrackingSession:
         timings: dict[str, float] = {}
         if not self.tracker.initialized:
             self._start(observations, timings)
-        judged = self._judge('previous', self._fit(observations, self._prediction(), timings),
+        start_theta = self._prediction(observations.stamp_ns)
+        judged = self._judge('previous', self._fit(observations, start_theta, timings),
                              observations)
         iterations = judged.fit.iterations
         failure = self.config.failure
@@ -136,7 +140,8 @@ class TrackingSession:
             timings['search'] = time.perf_counter() - t0
             if searched.confidence > judged.confidence:
                 judged = searched
-        status = self._settle(judged, continues=judged.name == 'previous' and not searched_now)
+        status = self._settle(judged, observations.stamp_ns,
+                              continues=judged.name == 'previous' and not searched_now)
         timings['total'] = time.perf_counter() - start
         fit = judged.fit
         return TrackResult(observations.stamp_ns, status, fit.theta, fit.posed, iterations,
@@ -160,12 +165,15 @@ class TrackingSession:
             raise RuntimeError(msg)
         timings['initialize'] = timings.get('initialize', 0.0) + time.perf_counter() - t0
 
-    def _prediction(self) -> FloatArray | None:
+    def _prediction(self, stamp_ns: int) -> FloatArray | None:
         """The start of the frame's fit: None for the last estimate itself."""
         history = self.tracker.history
-        if not self.config.predict or history.shape[0] < 2:
+        if not self.config.predict or history.shape[0] < 2 or len(self._stamps) < 2:
             return None
-        return constant_velocity(history, self.tracker.model)
+        t0, t1 = self._stamps[-2:]
+        if not t0 < t1 <= stamp_ns:
+            return None
+        return constant_velocity(history, self.tracker.model, (stamp_ns - t1) / (t1 - t0))
 
     def _fit(self, observations: FrameObservations, start: FloatArray | None,
              timings: dict[str, float]) -> Fit:
@@ -209,7 +217,7 @@ class TrackingSession:
         spent += refined.fit.iterations
         return (refined if refined.confidence > first.confidence else first), spent
 
-    def _settle(self, judged: _Judged, continues: bool) -> TrackStatus:
+    def _settle(self, judged: _Judged, stamp_ns: int, continues: bool) -> TrackStatus:
         """Keep ``judged`` as the next frame's start and decide the frame's status.
 
         ``continues``: the fit started from the history the tracker still holds, which it then
@@ -217,9 +225,11 @@ class TrackingSession:
         """
         if continues:
             self.tracker.accept(judged.fit)
+            self._stamps = [*self._stamps[-1:], stamp_ns]
         else:
             # Another basin: the velocity of the old history does not apply to it.
             self.tracker.reset(judged.fit.theta)
+            self._stamps = [stamp_ns]
         if judged.confidence >= self.config.failure.lost_below:
             self._lost = 0
             self._trusted = judged.fit.theta.copy()

@@ -42,6 +42,8 @@ def test_constant_velocity_extrapolates_and_stays_in_the_limits(hand_model) -> N
     b[10] += 0.1
     np.testing.assert_allclose(constant_velocity(np.stack([a, b]), hand_model)[[0, 10]],
                                [a[0] + 0.02, a[10] + 0.2])
+    np.testing.assert_allclose(constant_velocity(np.stack([a, b]), hand_model, 2.0)[[0, 10]],
+                               [a[0] + 0.03, a[10] + 0.3])         # a skipped set
     np.testing.assert_array_equal(constant_velocity(b[None], hand_model), b)
     far = b.copy()
     far[10] = hand_model.upper[10]
