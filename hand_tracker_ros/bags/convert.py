@@ -11,6 +11,8 @@ Image layout (``sensor_msgs/Image``): row ``r`` starts at byte ``r * step``; a r
 """
 from __future__ import annotations
 
+import math
+
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -313,10 +315,15 @@ def hand_state_msg(state: HandStateValues) -> Any:
 
 
 def hand_state_from_msg(msg: Any) -> HandStateValues:
-    """Return the plain values of a ``hand_tracker_msgs/msg/HandState``."""
+    """Return the plain values of a ``hand_tracker_msgs/msg/HandState``.
+
+    Bags keep the definition they were recorded with: a HandState from before the
+    ``confidence`` field gets NaN there.
+    """
     return HandStateValues(
         stamp_ns=stamp_ns_of(msg.header), frame_id=msg.header.frame_id, status=int(msg.status),
-        confidence=float(msg.confidence), joint_names=tuple(msg.joint_names),
+        confidence=float(getattr(msg, 'confidence', math.nan)),
+        joint_names=tuple(msg.joint_names),
         joint_positions=np.array(msg.joint_positions, dtype=np.float64),
         keypoint_names=tuple(msg.keypoint_names), keypoints_m=_points_array(msg.keypoints),
         fingertips_m=_points_array(msg.fingertips), shape_names=tuple(msg.shape_names),

@@ -1,5 +1,8 @@
 from __future__ import annotations
 
+import dataclasses
+import types
+
 import numpy as np
 import pytest
 
@@ -127,6 +130,14 @@ def test_hand_state_round_trip(samples):
             assert got == pytest.approx(want, rel=1e-7)  # float32 in the message
         else:
             np.testing.assert_array_equal(got, want, err_msg=name)
+
+
+def test_a_hand_state_recorded_before_the_confidence_field_reads_as_nan(samples):
+    msg = convert.hand_state_msg(samples.hand_state(STAMP_NS, 0))
+    old = types.SimpleNamespace(**{f.name: getattr(msg, f.name) for f in dataclasses.fields(msg)
+                                   if f.name != 'confidence'})
+    back = convert.hand_state_from_msg(old)
+    assert np.isnan(back.confidence) and back.iterations == 7
 
 
 def test_hand_state_checks_fingertips(samples):
