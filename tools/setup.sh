@@ -5,7 +5,9 @@
 #   2. the CMake path fix for the ROS wheels (tools/fix_wheel_cmake.sh);
 #   3. `colcon build` of msg_defs/hand_tracker_msgs (ament_cmake) and of this repository's
 #      root package hand_tracker_ros (ament_python, --symlink-install) into .ws/;
-#   4. .ws/env.sh, which a shell sources to use the result.
+#   4. .ws/env.sh, which a shell sources to use the result;
+#   5. `hand-tracker warmup`: the numba kernels compiled into their on-disk cache, so that no
+#      node, test or demo compiles while frames arrive.
 # Each step is skipped when its inputs did not change, so a no-op run takes a few seconds.
 set -euo pipefail
 shopt -s nullglob
@@ -102,4 +104,18 @@ export FASTDDS_DEFAULT_PROFILES_FILE="\${FASTDDS_DEFAULT_PROFILES_FILE:-$ROOT/co
 # 26 parameters are too narrow for a second BLAS thread; cores go to per-camera work instead.
 export OPENBLAS_NUM_THREADS="\${OPENBLAS_NUM_THREADS:-1}"
 ENV
+
+# --- 4. JIT warm-up ---------------------------------------------------------------------------
+warm_hash=$(cd "$ROOT" && find hand_tracker_ros -name '*.py' -print0 | sort -z | xargs -0 cat | sha256sum | cut -d' ' -f1)
+if [ "$(cat "$WS/.warm_hash" 2>/dev/null)" != "$warm_hash" ]; then
+  log "compiling the JIT kernels into numba's cache (log: $WS/logs/warmup.log)"
+  (
+    # shellcheck disable=SC1091
+    . "$WS/env.sh"
+    hand-tracker warmup
+  ) >"$WS/logs/warmup.log" 2>&1 || { tail -20 "$WS/logs/warmup.log" >&2; fail "warm-up failed"; }
+  echo "$warm_hash" >"$WS/.warm_hash"
+else
+  log "JIT cache up to date"
+fi
 log "ready: source $WS/env.sh"

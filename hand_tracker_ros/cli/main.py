@@ -11,11 +11,11 @@ import sys
 from collections.abc import Sequence
 
 from hand_tracker_ros.cli import (demo, evaluate, launch, params, play, record, replay_eval,
-                                  robustness, synth, track, train_detector)
+                                  robustness, synth, track, train_detector, warmup)
 from hand_tracker_ros.errors import HandTrackerError
 
 VERBS = (demo, evaluate, launch, params, play, record, replay_eval, robustness, synth, track,
-         train_detector)
+         train_detector, warmup)
 
 
 def build_parser() -> argparse.ArgumentParser:
