@@ -45,6 +45,8 @@ def _help_text(config_cls: type) -> str:
 
 def _spin(node: Node) -> None:
     """Spin ``node`` until its context shuts down."""
+    if not node.context.ok():        # a signal came while the node was being built
+        return
     executor = SingleThreadedExecutor(context=node.context)
     executor.add_node(node)
     while node.context.ok():
@@ -73,6 +75,12 @@ def run_node(name: str, description: str, config_cls: type,
         _spin(node)
     except ExternalShutdownException:
         pass
+    except Exception:
+        # A signal that arrives while the node or its executor is still being built shuts
+        # the context down under them (rclpy then fails to create a guard condition): that
+        # is a shutdown, not an error. Anything raised while the context is up is one.
+        if rclpy.ok():
+            raise
     finally:
         if node is not None:
             node.destroy_node()
