@@ -103,7 +103,7 @@ def run_case(job: tuple[str, int, int | None, PipelineConfig]) -> CaseRun:
     ``job`` is ``(case, seed, frames, pipeline)``; ``frames`` overrides the case's length.
     """
     case, seed, frames, pipeline_config = job
-    synth = replace(SynthConfig(motion='random', seed=seed), **CASES[case])
+    synth = replace(SynthConfig(motion='random', seed=seed, n_frames=300), **CASES[case])
     if frames is not None:
         synth = replace(synth, n_frames=frames)
     model = HandModel.build()
