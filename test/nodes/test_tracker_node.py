@@ -208,7 +208,7 @@ def test_tracker_survives_bad_input_with_clear_logs(node_process, ros, hand_mode
     assert not has_state(2, 0.1) and not has_state(3, 0.1) and not has_state(4, 0.1)
     send(5, cameras=('cam1',))                                       # cam1 is back
     assert has_state(5), tracker.output()
-    # The hand leaves the masks: LOST, DELETEALL markers, then a re-initialization.
+    # The hand leaves the images: LOST, DELETEALL markers, then a re-initialization.
     for k in range(1, 4):
         stamp = frames[5].stamp_ns + k * 40_000_000
         for (cam, part), msg in _restamped(messages[5], stamp).items():
@@ -223,13 +223,15 @@ def test_tracker_survives_bad_input_with_clear_logs(node_process, ros, hand_mode
 
 
 def _restamped(messages: dict, stamp_ns: int) -> dict:
-    """Camera -> part -> message copied to ``stamp_ns``, with empty masks."""
+    """Camera -> part -> message copied to ``stamp_ns``, with empty masks and edge maps (the
+    hand left the images)."""
     from sensor_msgs.msg import Image
 
     return {(cam, part): Image(header=_header(stamp_ns, msg.header.frame_id),
                                height=msg.height, width=msg.width, encoding=msg.encoding,
                                is_bigendian=msg.is_bigendian, step=msg.step,
-                               data=bytes(len(msg.data)) if part == 'mask' else msg.data)
+                               data=bytes(len(msg.data)) if part in ('mask', 'edges')
+                               else msg.data)
             for cam, parts in messages.items() for part, msg in parts.items()}
 
 
