@@ -16,14 +16,14 @@ import numpy as np
 
 from hand_tracker_ros._typing import UInt8Array
 from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues,
-                                           camera_info_from_msg,
-                                           hand_state_from_msg, image_from_msg)
+                                           camera_info_from_msg, hand_state_from_msg)
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.errors import CalibrationError, HandTrackerError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig
 from hand_tracker_ros.synthetic.writer import GT_STATE_TOPIC, image_topic, info_topic
+from hand_tracker_ros.vision.image_codec import image_from_msg
 
 LOG = logging.getLogger(__name__)
 
@@ -81,7 +81,7 @@ def frame_sets(bag: str | Path, rig: CameraRig, *, sync: SyncConfig = SyncConfig
     with BagReader(bag) as reader:
         for topic, _, stamp, msg in reader.decoded(topics=list(topics)):
             try:
-                image = image_from_msg(msg, topic=topic)
+                image = image_from_msg(msg, source=topic)
             except HandTrackerError as err:
                 LOG.warning('dropping a frame: %s', err)
                 continue
