@@ -8,7 +8,7 @@ complete and is skipped, and counted by the synchronizer).
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +22,8 @@ from hand_tracker_ros.errors import CalibrationError, HandTrackerError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig
-from hand_tracker_ros.synthetic.writer import GT_STATE_TOPIC, image_topic, info_topic
+from hand_tracker_ros.synthetic.writer import (GT_STATE_TOPIC, compressed_image_topic,
+                                              image_topic, info_topic)
 from hand_tracker_ros.vision.image_codec import image_from_msg
 
 LOG = logging.getLogger(__name__)
@@ -48,9 +49,10 @@ def load_rig(bag: str | Path, rig_path: str | Path | None = None) -> CameraRig:
     rig = CameraRig.from_yaml(path)
     with BagReader(bag) as reader:
         topics = reader.topics
-        missing = [c.name for c in rig.cameras if image_topic(c.name) not in topics]
+        missing = [c.name for c in rig.cameras if camera_image_topic(topics, c.name) is None]
         if missing:
-            msg = f'{bag}: no image topic for camera(s) {missing} of rig {path}'
+            msg = (f'{bag}: no image topic for camera(s) {missing} of rig {path} (looked for '
+                   f'{image_topic(missing[0])} and {compressed_image_topic(missing[0])})')
             raise CalibrationError(msg)
         seen: set[str] = set()
         infos = [info_topic(c.name) for c in rig.cameras if info_topic(c.name) in topics]
@@ -60,6 +62,15 @@ def load_rig(bag: str | Path, rig_path: str | Path | None = None) -> CameraRig:
             seen.add(topic)
             _check_info(rig[topic.split('/')[1]], camera_info_from_msg(msg), topic)
     return rig
+
+
+def camera_image_topic(topics: Collection[str], camera: str) -> str | None:
+    """The bag topic with ``camera``'s images: raw ``/<cam>/image_raw`` if the bag has it,
+    else ``/<cam>/image_raw/compressed``, else None."""
+    for topic in (image_topic(camera), compressed_image_topic(camera)):
+        if topic in topics:
+            return topic
+    return None
 
 
 def _check_info(camera: PinholeCamera, info: CameraInfoValues, topic: str) -> None:
@@ -76,9 +87,9 @@ def frame_sets(bag: str | Path, rig: CameraRig, *, sync: SyncConfig = SyncConfig
                ) -> Iterator[FrameSet]:
     """Synchronized image sets of ``rig``'s cameras, in time order."""
     names = rig.names
-    topics = {image_topic(n): n for n in names}
     synchronizer = ApproximateTimeSync(names, sync)
     with BagReader(bag) as reader:
+        topics = {camera_image_topic(reader.topics, n): n for n in names}
         for topic, _, stamp, msg in reader.decoded(topics=list(topics)):
             try:
                 image = image_from_msg(msg, source=topic)
