@@ -11,8 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import load_rig
+from hand_tracker_ros.pipeline.frames import rig_file
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag, write_estimates
 from hand_tracker_ros.tracking.tracker import TrackStatus
@@ -32,7 +33,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Track and write; print a summary."""
-    rig = load_rig(args.bag, args.rig)
+    rig = CameraRig.from_yaml(rig_file(args.bag, args.rig))
     frames = write_estimates(
         track_bag(args.bag, rig_path=args.rig, config=PipelineConfig(),
                   init_from_ground_truth=args.init == 'ground-truth'),

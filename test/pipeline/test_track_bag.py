@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import logging
 import shutil
 from pathlib import Path
 
@@ -11,6 +12,7 @@ import pytest
 
 from hand_tracker_ros.bags.convert import hand_state_from_msg
 from hand_tracker_ros.bags.reader import BagReader
+from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.cli.main import main
 from hand_tracker_ros.pipeline.track_bag import JOINTS_TOPIC, STATE_TOPIC
 
@@ -77,11 +79,71 @@ def test_missing_rig_is_a_clear_error(synthetic: Path, tmp_path: Path,
     assert 'no rig calibration' in capsys.readouterr().err
 
 
-def test_corrupt_bag_is_a_clear_error(synthetic: Path, tmp_path: Path,
-                                      capsys: pytest.CaptureFixture) -> None:
+def _without_camera_info(bag: Path, out: Path) -> Path:
+    """A copy of ``bag`` without its camera_info topics (raw records, same stamps)."""
+    with BagReader(bag) as source, BagWriter(out) as target:
+        kept = {t: s for t, s in source.topics.items() if not t.endswith('/camera_info')}
+        for topic, summary in kept.items():
+            target.add_topic(topic, summary.msgtype)
+        for topic, _, stamp, raw in source.messages(topics=list(kept)):
+            target.write_raw(topic, stamp, raw)
+    return out
+
+
+def test_bag_without_camera_info_tracks_with_a_rig(synthetic: Path, raw_estimates: tuple,
+                                                   tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture) -> None:
+    bag = _without_camera_info(synthetic / 'bag', tmp_path / 'no_info' / 'bag')
+    error, _ = _track(bag, tmp_path / 'estimates', '--rig', str(synthetic / 'rig.yaml'))
+    assert error == raw_estimates[0]
+    assert main(['track', str(bag), '--out', str(tmp_path / 'o')]) == 2
+    err = capsys.readouterr().err
+    assert 'no rig calibration' in err and 'pass --rig' in err
+
+
+def test_wrong_bag_path_says_so(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(['track', str(tmp_path / 'nowhere'), '--out', str(tmp_path / 'o')]) == 2
+    err = capsys.readouterr().err
+    assert 'nowhere: bag not found' in err and 'rig' not in err
+    assert not (tmp_path / 'o').exists()
+
+
+def _tracked_count(bag: Path, out: Path) -> int:
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(['track', str(bag), '--out', str(out), '--init', 'ground-truth']) == 0
+    return int(printed.getvalue().split('tracked ')[1].split('/')[0])
+
+
+def test_truncated_bag_is_tracked_up_to_the_damage(synthetic: Path, tmp_path: Path,
+                                                   caplog: pytest.LogCaptureFixture) -> None:
     broken = tmp_path / 'broken'
     shutil.copytree(synthetic, broken)
     [mcap] = (broken / 'bag').glob('*.mcap')
-    mcap.write_bytes(mcap.read_bytes()[: mcap.stat().st_size // 2])
-    assert main(['track', str(broken / 'bag'), '--out', str(tmp_path / 'o')]) == 2
-    assert 'truncated' in capsys.readouterr().err
+    mcap.write_bytes(mcap.read_bytes()[: mcap.stat().st_size * 3 // 4])
+    with caplog.at_level(logging.WARNING):
+        tracked = _tracked_count(broken / 'bag', tmp_path / 'o')
+    assert 0 < tracked < 6
+    assert 'is truncated' in caplog.text and 'before the damage' in caplog.text
+
+
+def test_bag_damaged_inside_is_tracked_up_to_the_damage(synthetic: Path, tmp_path: Path,
+                                                        caplog: pytest.LogCaptureFixture
+                                                        ) -> None:
+    broken = tmp_path / 'broken'
+    shutil.copytree(synthetic, broken)
+    with BagReader(broken / 'bag') as bag:
+        stamps = sorted({stamp for *_, stamp, _ in bag.messages(topics=['/cam0/image_raw'])})
+    [mcap] = (broken / 'bag').glob('*.mcap')
+    data = bytearray(mcap.read_bytes())
+    # mcap Message record: opcode 0x05, u64 length, u16 channel, u32 sequence, u64 log time,
+    # u64 publish time, payload. Give a late frame's first record an absurd length.
+    stamp = stamps[4].to_bytes(8, 'little')
+    start = data.index(stamp + stamp) - 1 - 8 - 2 - 4
+    assert data[start] == 0x05
+    data[start + 1:start + 9] = (2**62).to_bytes(8, 'little')
+    mcap.write_bytes(bytes(data))
+    with caplog.at_level(logging.WARNING):
+        tracked = _tracked_count(broken / 'bag', tmp_path / 'o')
+    assert 0 < tracked < 6
+    assert 'damaged after the messages read so far' in caplog.text
