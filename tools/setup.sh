@@ -64,7 +64,7 @@ fi
 # --- 2. colcon build --------------------------------------------------------------------------
 build_inputs=("$ROOT"/setup.py "$ROOT"/setup.cfg "$ROOT"/package.xml "$ROOT"/resource/*
               "$ROOT"/msg_defs/hand_tracker_msgs/package.xml "$ROOT"/msg_defs/hand_tracker_msgs/CMakeLists.txt
-              "$ROOT"/msg_defs/hand_tracker_msgs/msg/*.msg "$ROOT"/config/* "$ROOT"/launch/*)
+              "$ROOT"/msg_defs/hand_tracker_msgs/msg/*.msg "$ROOT"/config/* "$ROOT"/launch/* "$ROOT"/urdf/*)
 build_hash=$( { echo "$req_hash"; ls "${build_inputs[@]}"; cat "${build_inputs[@]}"; } | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$WS/.build_hash" 2>/dev/null)" != "$build_hash" ] || [ ! -f "$WS/install/setup.bash" ]; then
   log "colcon build (log: $WS/logs/colcon.log)"

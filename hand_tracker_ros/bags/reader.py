@@ -27,6 +27,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+import yaml
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection, QosReliability
 
@@ -150,6 +151,16 @@ class BagReader:
         return {name: TopicSummary(msgtype=info.msgtype or '', count=info.msgcount,
                                    best_effort=_is_best_effort(info.connections))
                 for name, info in reader.topics.items()}
+
+    @property
+    def storage(self) -> str:
+        """Storage plugin: ``mcap`` for a bare .mcap file, else the ``storage_identifier`` of
+        the bag's ``metadata.yaml`` (``mcap`` or ``sqlite3``)."""
+        self._open_reader()
+        if self.path.is_file():
+            return 'mcap'
+        metadata = yaml.safe_load((self.path / 'metadata.yaml').read_text())
+        return str(metadata['rosbag2_bagfile_information']['storage_identifier'])
 
     @property
     def start_ns(self) -> int:

@@ -10,12 +10,12 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from hand_tracker_ros.cli import (demo, evaluate, launch, params, play, record, replay_eval,
-                                  synth, track, train_detector)
+from hand_tracker_ros.cli import (bag_info, demo, evaluate, launch, params, play, record,
+                                  replay_eval, synth, topics, track, train_detector, urdf)
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (demo, evaluate, launch, params, play, record, replay_eval, synth, track,
-         train_detector)
+VERBS = (bag_info, demo, evaluate, launch, params, play, record, replay_eval, synth, topics,
+         track, train_detector, urdf)
 
 
 def build_parser() -> argparse.ArgumentParser:
