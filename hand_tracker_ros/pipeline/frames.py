@@ -19,7 +19,7 @@ from hand_tracker_ros._typing import UInt8Array
 from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues,
                                            camera_info_from_msg, hand_state_from_msg)
 from hand_tracker_ros.bags.reader import BagReader, check_bag_path
-from hand_tracker_ros.errors import CalibrationError, HandTrackerError
+from hand_tracker_ros.errors import BagFormatError, CalibrationError, HandTrackerError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig
@@ -89,6 +89,17 @@ def camera_image_topic(topics: Collection[str], camera: str) -> str | None:
         if topic in topics:
             return topic
     return None
+
+
+def image_count(bag: str | Path, camera: str) -> int | None:
+    """How many images of ``camera`` the bag holds (an upper bound of its frame sets), or
+    None if that cannot be read without tracking (a damaged bag)."""
+    try:
+        with BagReader(bag) as reader:
+            topic = camera_image_topic(reader.topics, camera)
+            return None if topic is None else reader.topics[topic].count
+    except BagFormatError:
+        return None
 
 
 def _check_info(camera: PinholeCamera, info: CameraInfoValues, topic: str) -> None:

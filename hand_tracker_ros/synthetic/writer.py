@@ -26,6 +26,7 @@ from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
+from hand_tracker_ros.progress import progress
 from hand_tracker_ros.synthetic.sequence import SyntheticFrame, SyntheticSequence
 
 GT_JOINTS_TOPIC = '/hand/ground_truth/joint_states'
@@ -92,7 +93,7 @@ def write_sequence(sequence: SyntheticSequence, out_dir: str | Path, *,
             writer.add_topic(info_topic(cam), 'sensor_msgs/msg/CameraInfo')
         writer.add_topic(GT_JOINTS_TOPIC, 'sensor_msgs/msg/JointState')
         writer.add_topic(GT_STATE_TOPIC, 'hand_tracker_msgs/msg/HandState')
-        for frame in sequence:
+        for frame in progress(sequence, total=len(sequence), desc='synth', unit='frame'):
             for camera, image in zip(rig.cameras, frame.images):
                 frame_id = optical_frame(camera.name)
                 writer.write(topic_of(camera.name), frame.stamp_ns,
