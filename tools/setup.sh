@@ -7,6 +7,9 @@
 #      root package hand_tracker_ros (ament_python, --symlink-install) into .ws/;
 #   4. .ws/env.sh, which a shell sources to use the result.
 # Each step is skipped when its inputs did not change, so a no-op run takes a few seconds.
+#
+# HT_TRAIN=1 also installs requirements/train.txt (PyTorch and ONNX, about 0.8 GB, only for
+# `hand-tracker train-detector` and its tests); by default they are left out.
 set -euo pipefail
 shopt -s nullglob
 
@@ -41,8 +44,10 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 # --- 1. venv and pinned requirements --------------------------------------------------------------
-REQS=("$ROOT"/requirements/ros-runtime.txt "$ROOT"/requirements/ros-build.txt "$ROOT"/requirements/python.txt
-      "$ROOT"/requirements/train.txt)
+REQS=("$ROOT"/requirements/ros-runtime.txt "$ROOT"/requirements/ros-build.txt "$ROOT"/requirements/python.txt)
+if [ "${HT_TRAIN:-0}" = 1 ]; then
+  REQS+=("$ROOT"/requirements/train.txt)
+fi
 req_hash=$( { "$PYTHON" --version; cat "${REQS[@]}"; } | sha256sum | cut -d' ' -f1)
 if [ ! -x "$VENV/bin/python" ]; then
   log "creating venv $VENV"
