@@ -14,6 +14,7 @@ from hand_tracker_ros.bags.convert import hand_state_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.cli.main import main
+from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.pipeline.track_bag import JOINTS_TOPIC, STATE_TOPIC
 
 
@@ -44,8 +45,14 @@ def synthetic(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='module')
-def raw_estimates(synthetic: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple:
-    return _track(synthetic / 'bag', tmp_path_factory.mktemp('raw') / 'estimates')
+def raw_output(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Where ``raw_estimates`` writes the estimates bag."""
+    return tmp_path_factory.mktemp('raw') / 'estimates'
+
+
+@pytest.fixture(scope='module')
+def raw_estimates(synthetic: Path, raw_output: Path) -> tuple:
+    return _track(synthetic / 'bag', raw_output)
 
 
 def test_track_writes_estimates_close_to_ground_truth(raw_estimates: tuple) -> None:
@@ -53,6 +60,36 @@ def test_track_writes_estimates_close_to_ground_truth(raw_estimates: tuple) -> N
     assert error < 6.0
     assert [s.status for s in states] == [1] * 6
     assert states[0].keypoints_m.shape == (21, 3) and np.isfinite(states[0].joint_positions).all()
+
+
+def test_estimates_bag_reads_with_the_independent_mcap_readers(raw_estimates: tuple,
+                                                                 raw_output: Path) -> None:
+    """The ``mcap`` + ``mcap-ros2-support`` readers (not rosbags, which wrote the bag) decode
+    every message, from the schemas stored in the file, to the values rosbags reads."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    _, states = raw_estimates
+    [mcap] = raw_output.glob('*.mcap')
+    with mcap.open('rb') as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        rows = [(channel.topic, schema.name, msg.log_time, ros)
+                for schema, channel, msg, ros in reader.iter_decoded_messages()]
+    joints = [r for r in rows if r[0] == JOINTS_TOPIC]
+    hand = [r for r in rows if r[0] == STATE_TOPIC]
+    assert {r[1] for r in joints} == {'sensor_msgs/msg/JointState'}
+    assert {r[1] for r in hand} == {'hand_tracker_msgs/msg/HandState'}
+    assert len(joints) == len(hand) == len(states) == 6
+    for (_, _, log_ns, joint), (_, _, _, state), expected in zip(joints, hand, states,
+                                                                 strict=True):
+        assert log_ns == expected.stamp_ns
+        assert joint.header.stamp.sec * 10**9 + joint.header.stamp.nanosec == log_ns
+        assert tuple(joint.name) == PARAM_NAMES
+        np.testing.assert_array_equal(joint.position, expected.joint_positions)
+        assert state.status == expected.status and state.iterations == expected.iterations
+        np.testing.assert_array_equal(
+            [(p.x, p.y, p.z) for p in state.keypoints], expected.keypoints_m)
+        assert tuple(state.energy_names) == expected.energy_names
 
 
 @pytest.mark.parametrize('image_format', ['png', 'jpeg'])
