@@ -17,6 +17,8 @@ setup(
         (f'share/{PACKAGE}', ['package.xml']),
         (f'share/{PACKAGE}/config', glob('config/*.yaml') + glob('config/*.xml')),
         (f'share/{PACKAGE}/launch', glob('launch/*.launch.py')),
+        (f'share/{PACKAGE}/urdf', glob('urdf/*.urdf')),
+        (f'share/{PACKAGE}/requirements', ['requirements/train.txt']),
         (f'share/{PACKAGE}/msg_defs/hand_tracker_msgs/msg',
          glob('msg_defs/hand_tracker_msgs/msg/*.msg')),
     ],

@@ -16,6 +16,7 @@ from hand_tracker_ros.vision.detector.detector import DetectorConfig
 from hand_tracker_ros.vision.features import FeaturesConfig
 
 DEFAULT_CAMERAS = ('cam0', 'cam1', 'cam2', 'cam3')
+IMAGE_TRANSPORTS = ('raw', 'compressed')
 
 
 @dataclass(frozen=True)
@@ -24,6 +25,9 @@ class FeaturesNodeConfig:
 
     cameras: tuple[str, ...] = param(DEFAULT_CAMERAS, 'camera namespaces served by this node')
     image_topic: str = param('image_raw', 'image topic, relative to each camera namespace')
+    image_transport: str = param('raw', "'raw': sensor_msgs/Image on <cam>/<image_topic>; "
+                                 "'compressed': sensor_msgs/CompressedImage (jpeg, png) on "
+                                 '<cam>/<image_topic>/compressed', choices=IMAGE_TRANSPORTS)
     queue_depth: int = param(2, 'subscription queue depth per camera', low=1, high=100)
     features: FeaturesConfig = nested(FeaturesConfig)
 
@@ -34,6 +38,9 @@ class SalientPointsNodeConfig:
 
     cameras: tuple[str, ...] = param(DEFAULT_CAMERAS, 'camera namespaces served by this node')
     image_topic: str = param('image_raw', 'image topic, relative to each camera namespace')
+    image_transport: str = param('raw', "'raw': sensor_msgs/Image on <cam>/<image_topic>; "
+                                 "'compressed': sensor_msgs/CompressedImage (jpeg, png) on "
+                                 '<cam>/<image_topic>/compressed', choices=IMAGE_TRANSPORTS)
     queue_depth: int = param(2, 'subscription queue depth per camera', low=1, high=100)
     detector: DetectorConfig = nested(DetectorConfig)
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import ast
+import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -13,6 +14,9 @@ ROS_MODULES = ('rclpy', 'rcl_interfaces', 'sensor_msgs', 'std_msgs', 'geometry_m
                'visualization_msgs', 'diagnostic_msgs', 'rosgraph_msgs', 'builtin_interfaces',
                'hand_tracker_msgs', 'cv_bridge', 'message_filters', 'ament_index_python')
 ADAPTERS = ('nodes', 'ros_io')
+# Core modules that need an optional package (requirements/train.txt), imported only when it
+# is installed.
+OPTIONAL = {'hand_tracker_ros.vision.detector.network': 'torch'}
 
 
 def _core_modules() -> list[str]:
@@ -21,7 +25,10 @@ def _core_modules() -> list[str]:
         rel = path.relative_to(PACKAGE_DIR.parent).with_suffix('')
         if rel.parts[1] in ADAPTERS:
             continue
-        names.append('.'.join(rel.parts).removesuffix('.__init__'))
+        name = '.'.join(rel.parts).removesuffix('.__init__')
+        if name in OPTIONAL and importlib.util.find_spec(OPTIONAL[name]) is None:
+            continue
+        names.append(name)
     return names
 
 

@@ -29,7 +29,7 @@ def test_share_files_are_installed() -> None:
 
     share = Path(get_package_share_directory('hand_tracker_ros'))
     for rel in ('package.xml', 'config/fastdds_large_data.xml', 'config/tracker.yaml',
-                'launch/tracker.launch.py',
+                'launch/tracker.launch.py', 'urdf/hand.urdf',
                 'msg_defs/hand_tracker_msgs/msg/HandState.msg'):
         assert (share / rel).is_file(), rel
     assert share_file('config/tracker.yaml').is_file()

@@ -9,6 +9,9 @@
 #   5. `hand-tracker warmup`: the numba kernels compiled into their on-disk cache, so that no
 #      node, test or demo compiles while frames arrive.
 # Each step is skipped when its inputs did not change, so a no-op run takes a few seconds.
+#
+# HT_TRAIN=1 also installs requirements/train.txt (PyTorch and ONNX, about 0.8 GB, only for
+# `hand-tracker train-detector` and its tests); by default they are left out.
 set -euo pipefail
 shopt -s nullglob
 
@@ -43,8 +46,10 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 # --- 1. venv and pinned requirements --------------------------------------------------------------
-REQS=("$ROOT"/requirements/ros-runtime.txt "$ROOT"/requirements/ros-build.txt "$ROOT"/requirements/python.txt
-      "$ROOT"/requirements/train.txt)
+REQS=("$ROOT"/requirements/ros-runtime.txt "$ROOT"/requirements/ros-build.txt "$ROOT"/requirements/python.txt)
+if [ "${HT_TRAIN:-0}" = 1 ]; then
+  REQS+=("$ROOT"/requirements/train.txt)
+fi
 req_hash=$( { "$PYTHON" --version; cat "${REQS[@]}"; } | sha256sum | cut -d' ' -f1)
 if [ ! -x "$VENV/bin/python" ]; then
   log "creating venv $VENV"
@@ -66,7 +71,7 @@ fi
 # --- 2. colcon build --------------------------------------------------------------------------
 build_inputs=("$ROOT"/setup.py "$ROOT"/setup.cfg "$ROOT"/package.xml "$ROOT"/resource/*
               "$ROOT"/msg_defs/hand_tracker_msgs/package.xml "$ROOT"/msg_defs/hand_tracker_msgs/CMakeLists.txt
-              "$ROOT"/msg_defs/hand_tracker_msgs/msg/*.msg "$ROOT"/config/* "$ROOT"/launch/*)
+              "$ROOT"/msg_defs/hand_tracker_msgs/msg/*.msg "$ROOT"/config/* "$ROOT"/launch/* "$ROOT"/urdf/*)
 build_hash=$( { echo "$req_hash"; ls "${build_inputs[@]}"; cat "${build_inputs[@]}"; } | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$WS/.build_hash" 2>/dev/null)" != "$build_hash" ] || [ ! -f "$WS/install/setup.bash" ]; then
   log "colcon build (log: $WS/logs/colcon.log)"

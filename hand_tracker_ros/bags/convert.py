@@ -6,8 +6,9 @@ readers accept any object with the same fields (e.g. a message decoded with a ba
 type store). Time is always ``stamp_ns: int`` (nanoseconds since the epoch of the clock):
 ``stamp_ns = sec * 10**9 + nanosec``.
 
-Image layout (``sensor_msgs/Image``): row ``r`` starts at byte ``r * step``; a row holds
-``width * channels`` meaningful bytes and ``step - width * channels`` padding bytes.
+Images are decoded by :func:`hand_tracker_ros.vision.image_codec.image_from_msg`, the one
+decoder of every path; this module only writes them (rgb8 ``Image`` or jpeg/png
+``CompressedImage``).
 """
 from __future__ import annotations
 
@@ -17,17 +18,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray, UInt8Array
 from hand_tracker_ros.bags.typestore import typestore
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.errors import ImageFormatError, ShapeError
+from hand_tracker_ros.vision.image_codec import compress_rgb
 
 NS_PER_S = 1_000_000_000
-# Encoding -> channels; every supported encoding has 8-bit samples, so endianness is moot.
-IMAGE_CHANNELS = {'rgb8': 3, 'bgr8': 3, 'mono8': 1}
 
 
 def _types() -> Any:
@@ -82,49 +81,24 @@ def image_msg(rgb: UInt8Array, stamp_ns: int, frame_id: str) -> Any:
         is_bigendian=0, step=3 * width, data=np.ascontiguousarray(rgb).reshape(-1))
 
 
-def image_from_msg(msg: Any, *, topic: str = '?') -> UInt8Array:
-    """Return the pixels of a ``sensor_msgs/msg/Image`` as RGB.
+def compressed_image_msg(rgb: UInt8Array, stamp_ns: int, frame_id: str, codec: str) -> Any:
+    """Return a ``sensor_msgs/msg/CompressedImage`` of an RGB image.
 
     Parameters
     ----------
-    msg : sensor_msgs/msg/Image
-        Encoding rgb8, bgr8 or mono8 (replicated to three channels); rows may be padded.
-    topic : str
-        Used in error messages only.
-
-    Returns
-    -------
     rgb : (H, W, 3) uint8
-        A copy, independent of the message buffer.
-
-    Raises
-    ------
-    ImageFormatError
-        For another encoding, a ``step`` shorter than a row, or too little data.
+        Image, RGB channel order.
+    stamp_ns : int
+        Header stamp, ns.
+    frame_id : str
+        The camera's optical frame.
+    codec : str
+        ``jpeg`` or ``png``; ``format`` is set as compressed_image_transport does
+        (``'rgb8; jpeg compressed bgr8'``).
     """
-    channels = IMAGE_CHANNELS.get(msg.encoding)
-    if channels is None:
-        msg_text = (f'{topic}: unsupported image encoding {msg.encoding!r} '
-                    f'(supported: {", ".join(IMAGE_CHANNELS)})')
-        raise ImageFormatError(msg_text)
-    height, width, step = int(msg.height), int(msg.width), int(msg.step)
-    row_bytes = width * channels
-    if step < row_bytes:
-        msg_text = f'{topic}: {msg.encoding} step {step} < width * {channels} = {row_bytes}'
-        raise ImageFormatError(msg_text)
-    data = np.frombuffer(msg.data, dtype=np.uint8)
-    if data.size < step * height:
-        msg_text = (f'{topic}: {msg.encoding} image {width}x{height} step {step} needs '
-                    f'{step * height} bytes, got {data.size}')
-        raise ImageFormatError(msg_text)
-    rows = data[:step * height].reshape(height, step)[:, :row_bytes]
-    pixels = rows.reshape(height, width, channels)
-    # cv2.cvtColor reads the padded rows in place and is ~10x faster than numpy's flip/repeat.
-    if msg.encoding == 'bgr8':
-        return cv2.cvtColor(pixels, cv2.COLOR_BGR2RGB)
-    if msg.encoding == 'mono8':
-        return cv2.cvtColor(pixels[:, :, 0], cv2.COLOR_GRAY2RGB)
-    return pixels.copy()
+    data, fmt = compress_rgb(rgb, codec)
+    return _types()['sensor_msgs/msg/CompressedImage'](
+        header=header_msg(stamp_ns, frame_id), format=fmt, data=data)
 
 
 @dataclass(frozen=True, slots=True)

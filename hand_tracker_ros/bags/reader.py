@@ -4,33 +4,37 @@ Accepted paths: a bag directory holding ``metadata.yaml`` (any storage), or a ba
 ``.mcap`` file. Every failure is a :class:`BagFormatError` naming the file.
 
 Damaged files. A truncated mcap (a recorder killed before it wrote the summary and footer)
-is refused when the bag is opened: rosbags finds no valid end magic, and recovering the
-intact prefix would need an unindexed scan whose time order is not guaranteed. We raise
-rather than silently return part of a recording, so an evaluation never scores a partial
-bag by accident; the message says the file is truncated or corrupt. Damage that is only
+is refused when the bag is opened: rosbags finds no valid end magic. The message says the file
+is truncated or corrupt; :func:`hand_tracker_ros.bags.recover.readable_bag` copies its intact
+records into a complete file for callers that want the part that survived (``track`` does, with
+a warning), so nothing returns part of a recording silently. Damage that is only
 found while iterating (a bad record in a chunk, a wrong CRC, a corrupt sqlite3 page) is
 raised as :class:`BagFormatError` from :meth:`BagReader.messages` when it is reached; the
 messages yielded before stay valid (rosbags reads an mcap chunk at a time, so the error can
 come before the first message of the damaged chunk). Undecodable CDR payloads are raised by
-:meth:`BagReader.decoded`. rosbags writes mcap chunks without a CRC, so damage inside a
+:meth:`BagReader.decoded`; :meth:`BagReader.intact_messages` stops at the damage with a
+warning instead. rosbags writes mcap chunks without a CRC, so damage inside a
 payload that keeps the CDR structure valid (e.g. image pixels) is not detectable. A fuzz run
 (500 random byte-range corruptions of small mcap and sqlite3 bags) gave only clean reads or
 :class:`BagFormatError`, never another exception and never a hang.
 """
 from __future__ import annotations
 
+import logging
 from collections.abc import Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+import yaml
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection, QosReliability
 
 from hand_tracker_ros.bags.typestore import typestore
 from hand_tracker_ros.errors import BagFormatError
 
+LOG = logging.getLogger(__name__)
 # Every mcap file starts and ends with these bytes (mcap spec, 'Magic').
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 
@@ -73,6 +77,19 @@ def check_bag_path(path: Path) -> None:
         raise BagFormatError(msg)
 
 
+def truncated_mcap_files(path: Path) -> list[Path]:
+    """The mcap files of the bag at ``path`` (a bare file or a bag directory) that do not end
+    with the mcap magic, i.e. lack their footer."""
+    files = [path] if path.is_file() else sorted(path.glob('*.mcap'))
+    damaged = []
+    for file in files:
+        with file.open('rb') as stream:
+            stream.seek(max(file.stat().st_size - len(MCAP_MAGIC), 0))
+            if stream.read() != MCAP_MAGIC:
+                damaged.append(file)
+    return damaged
+
+
 class BagReader:
     """Context manager reading one rosbag2 bag.
 
@@ -113,13 +130,9 @@ class BagReader:
 
     def _open_failure(self) -> str:
         """Say which file is damaged when we can tell (a truncated mcap lacks its end magic)."""
-        files = [self.path] if self.path.is_file() else sorted(self.path.glob('*.mcap'))
-        for file in files:
-            with file.open('rb') as stream:
-                stream.seek(max(file.stat().st_size - len(MCAP_MAGIC), 0))
-                if stream.read() != MCAP_MAGIC:
-                    return (f'mcap file {file.name} is truncated (no footer: the recorder '
-                            'stopped before closing it) or corrupt')
+        if damaged := truncated_mcap_files(self.path):
+            return (f'mcap file {damaged[0].name} is truncated (no footer: the recorder '
+                    'stopped before closing it) or corrupt')
         return 'cannot open bag (corrupt storage or metadata)'
 
     def _error(self, what: str, err: BaseException) -> BagFormatError:
@@ -138,6 +151,16 @@ class BagReader:
         return {name: TopicSummary(msgtype=info.msgtype or '', count=info.msgcount,
                                    best_effort=_is_best_effort(info.connections))
                 for name, info in reader.topics.items()}
+
+    @property
+    def storage(self) -> str:
+        """Storage plugin: ``mcap`` for a bare .mcap file, else the ``storage_identifier`` of
+        the bag's ``metadata.yaml`` (``mcap`` or ``sqlite3``)."""
+        self._open_reader()
+        if self.path.is_file():
+            return 'mcap'
+        metadata = yaml.safe_load((self.path / 'metadata.yaml').read_text())
+        return str(metadata['rosbag2_bagfile_information']['storage_identifier'])
 
     @property
     def start_ns(self) -> int:
@@ -166,11 +189,14 @@ class BagReader:
         Parameters
         ----------
         topics : collection of str, optional
-            Only these topics (all by default); an absent topic is an error.
+            Only these topics (all by default; an empty collection yields nothing); an absent
+            topic is an error.
         start_ns, stop_ns : int, optional
             Only messages with ``start_ns <= stamp_ns < stop_ns`` (bag time, ns).
         """
         connections = self._connections(topics)
+        if not connections:   # rosbags reads an empty connection list as "every connection"
+            return
         iterator = self._open_reader().messages(connections, start=start_ns, stop=stop_ns)
         while True:
             try:
@@ -182,6 +208,19 @@ class BagReader:
                 return
             connection, stamp_ns, raw = item
             yield connection.topic, connection.msgtype, stamp_ns, bytes(raw)
+
+    def intact_messages(self, topics: Collection[str] | None = None
+                        ) -> Iterator[tuple[str, str, int, bytes]]:
+        """Like :meth:`messages`, but damage met while iterating ends the iteration with a
+        warning (naming the bag and the bag time reached) instead of an error."""
+        last_ns = None
+        try:
+            for item in self.messages(topics):
+                last_ns = item[2]
+                yield item
+        except BagFormatError as err:
+            LOG.warning('%s; using the messages before the damage (up to bag time %s ns)',
+                        err, last_ns)
 
     def deserialize(self, raw: bytes, msgtype: str, *, topic: str = '?') -> Any:
         """Return the message object of ``raw`` CDR bytes of type ``msgtype``."""

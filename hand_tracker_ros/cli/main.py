@@ -10,12 +10,13 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from hand_tracker_ros.cli import (demo, evaluate, launch, params, play, record, replay_eval,
-                                  robustness, synth, track, train_detector, warmup)
+from hand_tracker_ros.cli import (bag_info, demo, evaluate, launch, params, play, record,
+                                  replay_eval, robustness, synth, topics, track, train_detector,
+                                  urdf, warmup)
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (demo, evaluate, launch, params, play, record, replay_eval, robustness, synth, track,
-         train_detector, warmup)
+VERBS = (bag_info, demo, evaluate, launch, params, play, record, replay_eval, robustness, synth,
+         topics, track, train_detector, urdf, warmup)
 
 
 def build_parser() -> argparse.ArgumentParser:

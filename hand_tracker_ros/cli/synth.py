@@ -7,7 +7,7 @@ from typing import Any
 
 from hand_tracker_ros.synthetic.motions import MOTIONS
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.synthetic.writer import write_sequence
+from hand_tracker_ros.synthetic.writer import IMAGE_FORMATS, write_sequence
 
 
 def add_parser(sub: Any) -> None:
@@ -25,6 +25,9 @@ def add_parser(sub: Any) -> None:
     parser.add_argument('--clutter', type=int, default=6, help='clutter shapes per background')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--storage', default='mcap', choices=('mcap', 'sqlite3'))
+    parser.add_argument('--image-format', default='raw', choices=IMAGE_FORMATS,
+                        help='raw: sensor_msgs/Image rgb8 on /camK/image_raw; jpeg, png: '
+                             'sensor_msgs/CompressedImage on /camK/image_raw/compressed')
     parser.set_defaults(run=run)
 
 
@@ -34,7 +37,8 @@ def run(args: argparse.Namespace) -> int:
                          n_cameras=args.cameras, width=args.width, height=args.height,
                          noise_sigma=args.noise, clutter=args.clutter, seed=args.seed)
     start = time.monotonic()
-    bag = write_sequence(SyntheticSequence(config), args.out, storage=args.storage)
+    bag = write_sequence(SyntheticSequence(config), args.out, storage=args.storage,
+                         image_format=args.image_format)
     elapsed = time.monotonic() - start
     print(f'wrote {bag} ({args.frames} frames x {args.cameras} cameras, '
           f'{args.frames / elapsed:.1f} frames/s) and {bag.parent / "rig.yaml"}')

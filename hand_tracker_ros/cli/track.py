@@ -11,10 +11,12 @@ from typing import Any
 
 import numpy as np
 
+from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import load_rig
+from hand_tracker_ros.pipeline.frames import image_count, rig_file
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag, write_estimates
+from hand_tracker_ros.progress import progress
 from hand_tracker_ros.tracking.result import TrackStatus
 
 
@@ -32,11 +34,12 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Track and write; print a summary."""
-    rig = load_rig(args.bag, args.rig)
-    frames = write_estimates(
-        track_bag(args.bag, rig_path=args.rig, config=PipelineConfig(),
-                  init_from_ground_truth=args.init == 'ground-truth'),
-        args.out, rig.world_frame, HandModel.build())
+    rig = CameraRig.from_yaml(rig_file(args.bag, args.rig))
+    estimates = track_bag(args.bag, rig_path=args.rig, config=PipelineConfig(),
+                          init_from_ground_truth=args.init == 'ground-truth')
+    frames = write_estimates(progress(estimates, total=image_count(args.bag, rig.names[0]),
+                                      desc='track', unit='set'),
+                             args.out, rig.world_frame, HandModel.build())
     tracked = sum(f.result.status == TrackStatus.TRACKING for f in frames)
     ms = 1e3 * np.median([f.result.timings_s['total'] for f in frames]) if frames else 0.0
     print(f'tracked {tracked}/{len(frames)} frame sets ({ms:.0f} ms/frame median); '

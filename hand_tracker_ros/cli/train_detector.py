@@ -1,20 +1,31 @@
 """`hand-tracker train-detector`: train the fingertip network on synthetic renders.
 
-Needs PyTorch (requirements/train.txt). The same seed and options give the same model file,
-byte for byte, on the same machine. The shipped model
+Needs PyTorch and ONNX (requirements/train.txt), which the default install leaves out: without
+them the command prints the exact pip command, or runs it with ``--install``
+(``HT_TRAIN=1 bash tools/setup.sh`` installs them too). The same seed and options give the same
+model file, byte for byte, on the same machine. The shipped model
 (hand_tracker_ros/vision/models/fingertip_cnn.onnx) is ``train-detector --seed 0``.
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib.util
+import shlex
+import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
 
+from hand_tracker_ros.ament import share_file
 from hand_tracker_ros.config import validate
+from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.vision.detector.model import default_model_path
 from hand_tracker_ros.vision.detector.training import TrainingConfig, train
+
+# Importable names of the packages in requirements/train.txt.
+TRAINING_MODULES = ('torch', 'onnx')
 
 
 def add_parser(sub: Any) -> None:
@@ -30,11 +41,35 @@ def add_parser(sub: Any) -> None:
                         help=f'rendered training views (default {defaults.n_views})')
     parser.add_argument('--epochs', type=int, default=defaults.epochs,
                         help=f'passes over the views (default {defaults.epochs})')
+    parser.add_argument('--install', action='store_true',
+                        help='first install the training requirements (PyTorch, ONNX) with pip '
+                             'if they are missing')
     parser.set_defaults(run=run)
+
+
+def ensure_training_requirements(install: bool) -> None:
+    """Raise a :class:`HandTrackerError` with the exact pip command if PyTorch or ONNX is
+    missing, or (``install``) run that command."""
+    missing = [name for name in TRAINING_MODULES if importlib.util.find_spec(name) is None]
+    if not missing:
+        return
+    command = [sys.executable, '-m', 'pip', 'install', '-r',
+               str(share_file('requirements/train.txt'))]
+    if not install:
+        msg = (f'train-detector needs {" and ".join(missing)} (the training requirements, not '
+               f'in the default install). Install them with\n  {shlex.join(command)}\n'
+               'or run again with --install (or set HT_TRAIN=1 for tools/setup.sh)')
+        raise HandTrackerError(msg)
+    print(f'installing the training requirements: {shlex.join(command)}', flush=True)
+    if subprocess.run(command, check=False).returncode != 0:
+        msg = f'installing the training requirements failed: {shlex.join(command)}'
+        raise HandTrackerError(msg)
+    importlib.invalidate_caches()
 
 
 def run(args: argparse.Namespace) -> int:
     """Train and write the model; print where it went."""
+    ensure_training_requirements(args.install)
     config = dataclasses.replace(TrainingConfig(), n_views=args.views, epochs=args.epochs)
     validate(config)
     out = Path(args.out) if args.out else default_model_path()

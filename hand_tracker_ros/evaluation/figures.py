@@ -8,14 +8,15 @@ import cv2
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.bags.convert import HandStateValues, image_from_msg
+from hand_tracker_ros.bags.convert import HandStateValues
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.pipeline.frames import camera_image_topic
 from hand_tracker_ros.render.rasterizer import render
-from hand_tracker_ros.synthetic.writer import image_topic
 from hand_tracker_ros.tracking.overlay import draw_overlay
 from hand_tracker_ros.vision.image import to_gray
+from hand_tracker_ros.vision.image_codec import image_from_msg
 
 
 def error_plot(errors_mm: FloatArray, path: Path, title: str) -> None:
@@ -39,12 +40,12 @@ def overlay_grid(bag: Path, rig: CameraRig, states: dict[int, HandStateValues],
                  stamps: Sequence[int], path: Path) -> None:
     """One row per stamp, one column per camera: the estimate drawn on the camera image."""
     model = HandModel.build()
-    wanted = {image_topic(c.name): c for c in rig.cameras}
     images: dict[tuple[str, int], np.ndarray] = {}
     with BagReader(bag) as reader:
+        wanted = {camera_image_topic(reader.topics, c.name): c for c in rig.cameras}
         for topic, _, stamp, msg in reader.decoded(topics=list(wanted)):
             if stamp in stamps:
-                images[(topic, stamp)] = image_from_msg(msg, topic=topic)
+                images[(topic, stamp)] = image_from_msg(msg, source=topic)
     rows = []
     for stamp in stamps:
         posed = model.pose(np.asarray(states[stamp].joint_positions), jacobian=False)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +22,7 @@ from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetr
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.progress import progress
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.result import TrackStatus
 
@@ -97,7 +98,10 @@ def run_job(job: Job) -> RunResult:
 
 def run_jobs(jobs: Sequence[Job], workers: int = 2) -> list[RunResult]:
     """Run jobs in ``workers`` processes (1: in this process), results in job order."""
+    def bar(results: Iterable[RunResult]) -> list[RunResult]:
+        return list(progress(results, total=len(jobs), desc='evaluate', unit='run'))
+
     if workers <= 1:
-        return [run_job(job) for job in jobs]
+        return bar(run_job(job) for job in jobs)
     with multiprocessing.get_context('fork').Pool(workers) as pool:
-        return pool.map(run_job, jobs, chunksize=1)
+        return bar(pool.imap(run_job, jobs, chunksize=1))

@@ -1,7 +1,8 @@
 """The `features` node: edges, foreground mask and optical flow per camera.
 
 For every camera ``<cam>`` of the ``cameras`` parameter it subscribes (sensor-data QoS) to
-``<cam>/image_raw`` and ``<cam>/camera_info`` and publishes, reliably and with the input's
+``<cam>/image_raw`` (or, with ``image_transport:=compressed``, the jpeg/png stream
+``<cam>/image_raw/compressed``) and ``<cam>/camera_info`` and publishes, reliably and with the input's
 header: ``<cam>/edges`` (mono8, 255 on edges), ``<cam>/edge_orientation`` (32FC1, edge-normal
 direction in rad, what the tracker's orientation check needs), ``<cam>/mask`` (mono8, 255 on the
 hand) and ``<cam>/flow`` (32FC2, px from the previous frame; not published on a camera's first
@@ -10,15 +11,14 @@ frame). A bad image gets one throttled error and is dropped; the node keeps runn
 from __future__ import annotations
 
 from collections.abc import Sequence
-from functools import partial
 
 from rclpy.node import Node
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CompressedImage, Image
 
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.node_config import FeaturesNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
-from hand_tracker_ros.ros_io.images import ImageSizes, image_msg, rgb_from_msg, sensor_qos
+from hand_tracker_ros.ros_io.images import ImageInputs, image_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.features import FeatureExtractor
@@ -36,22 +36,18 @@ class FeaturesNode(Node):
         super().__init__('features')
         bridge_core_logging(self)
         self.config = declare_config(self, FeaturesNodeConfig)
-        sensor = sensor_qos(self.config.queue_depth)
         self._extractors = {c: FeatureExtractor(c, self.config.features)
                             for c in self.config.cameras}
-        self._sizes = ImageSizes(self, THROTTLE_S)
+        self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
+                                   self.config.image_transport, self.config.queue_depth,
+                                   self._on_image, THROTTLE_S)
         self._pubs = {c: {o: self.create_publisher(Image, f'{c}/{o}', 10) for o in OUTPUTS}
                       for c in self.config.cameras}
-        for cam in self.config.cameras:
-            self.create_subscription(Image, f'{cam}/{self.config.image_topic}',
-                                     partial(self._on_image, cam), sensor)
-            self.create_subscription(CameraInfo, f'{cam}/camera_info',
-                                     partial(self._sizes.on_info, cam), sensor)
         self.get_logger().info(f'features for cameras {list(self.config.cameras)}')
 
-    def _on_image(self, camera: str, msg: Image) -> None:
+    def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
         try:
-            rgb = rgb_from_msg(msg, camera, self._sizes.get(camera))
+            rgb = self._inputs.decode(camera, msg)
             stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             features = self._extractors[camera].process(rgb, stamp_ns)
         except HandTrackerError as err:

@@ -14,12 +14,14 @@ from pathlib import Path
 import numpy as np
 
 from hand_tracker_ros.bags.convert import HandStateValues, hand_state_msg, joint_state_msg
+from hand_tracker_ros.bags.recover import readable_bag
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
-from hand_tracker_ros.pipeline.frames import FrameSet, frame_sets, ground_truth, load_rig
+from hand_tracker_ros.pipeline.frames import (FrameSet, frame_sets, ground_truth, load_rig,
+                                              rig_file)
 from hand_tracker_ros.pipeline.offline import Detector, OfflinePipeline, PipelineConfig
 from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 
@@ -53,7 +55,20 @@ def hand_state_values(result: TrackResult, model: HandModel, world_frame: str
 def track_bag(bag: str | Path, *, rig_path: str | Path | None = None,
               config: PipelineConfig = PipelineConfig(), detector: Detector | None = None,
               init_from_ground_truth: bool = False) -> Iterator[TrackedFrame]:
-    """Estimates of every synchronized frame set of ``bag``, in order."""
+    """Estimates of every synchronized frame set of ``bag``, in order.
+
+    A truncated mcap bag is tracked up to the damage, with a warning
+    (:func:`~hand_tracker_ros.bags.recover.readable_bag`); so is one damaged in the middle
+    (:func:`~hand_tracker_ros.pipeline.frames.frame_sets`).
+    """
+    rig_path = rig_file(bag, rig_path)
+    with readable_bag(bag) as readable:
+        yield from _track_readable(readable, rig_path, config, detector, init_from_ground_truth)
+
+
+def _track_readable(bag: Path, rig_path: Path, config: PipelineConfig,
+                    detector: Detector | None, init_from_ground_truth: bool
+                    ) -> Iterator[TrackedFrame]:
     rig = load_rig(bag, rig_path)
     truth = ground_truth(bag)
     model = HandModel.build()

@@ -1,38 +1,32 @@
 """sensor_msgs/Image and CameraInfo <-> numpy, and our SalientPoints message.
 
 The only place (with the nodes) where ROS image messages meet arrays. Decoding goes through
-:func:`hand_tracker_ros.vision.image.image_from_buffer`, so encodings, row padding, sizes and
-non-finite values are checked in one place and fail with an ``ImageFormatError`` naming the
-camera. Encoding writes the pixels with ``array.array.frombytes`` (one copy): assigning a numpy
-array to ``msg.data`` iterates element by element and costs ~90 ms for a 640x480 image.
+:func:`hand_tracker_ros.vision.image_codec.image_from_msg`, the one decoder of every path
+(offline too), which reads rclpy messages as they are. Encoding writes the pixels with
+``array.array.frombytes`` (one copy): assigning a numpy array to ``msg.data`` iterates element
+by element and costs ~90 ms for a 640x480 image.
 """
 from __future__ import annotations
 
 import array
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from functools import partial
+from typing import Any
 
 import numpy as np
 from hand_tracker_msgs.msg import SalientPoint, SalientPoints
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import Header
 
 from hand_tracker_ros._typing import FloatArray, UInt8Array
 from hand_tracker_ros.errors import CalibrationError, HandTrackerError
 from hand_tracker_ros.tracking.observations import SalientDetections
-from hand_tracker_ros.vision.image import image_from_buffer
+from hand_tracker_ros.vision.image_codec import image_from_msg
 
 _ENCODINGS = {(np.dtype(np.uint8), 1): 'mono8', (np.dtype(np.uint8), 3): 'rgb8',
               (np.dtype(np.float32), 1): '32FC1', (np.dtype(np.float32), 2): '32FC2'}
-
-
-def rgb_from_msg(msg: Image, camera_name: str,
-                 expected_size_px: tuple[int, int] | None = None) -> UInt8Array:
-    """Decode an Image message to (H, W, 3) uint8 RGB (raises ImageFormatError)."""
-    return image_from_buffer(msg.data, msg.width, msg.height, msg.encoding, msg.step,
-                             is_bigendian=bool(msg.is_bigendian), camera_name=camera_name,
-                             expected_size_px=expected_size_px)
 
 
 def image_msg(pixels: np.ndarray, header: Header) -> Image:
@@ -86,15 +80,46 @@ def sensor_qos(depth: int) -> QoSProfile:
                       history=qos_profile_sensor_data.history)
 
 
-class ImageSizes:
-    """Expected image size per camera, from its latest valid camera_info."""
+class ImageInputs:
+    """Every camera's image and camera_info subscriptions, and their decoding.
 
-    def __init__(self, node: Node, throttle_s: float) -> None:
+    Subscribes (sensor-data QoS) to ``<cam>/<image_topic>`` (``sensor_msgs/Image``) or, with
+    ``transport='compressed'``, to ``<cam>/<image_topic>/compressed``
+    (``sensor_msgs/CompressedImage``, image_transport's naming), and to ``<cam>/camera_info``,
+    whose latest valid size each decoded image must have.
+
+    Parameters
+    ----------
+    node : rclpy.node.Node
+        The node that owns the subscriptions and logs invalid camera_info (throttled).
+    cameras : sequence of str
+        Camera namespaces.
+    image_topic : str
+        Image topic relative to each camera namespace.
+    transport : str
+        ``raw`` or ``compressed``.
+    depth : int
+        Queue depth per subscription.
+    on_image : callable
+        Called with ``(camera, msg)`` for every image message.
+    throttle_s : float
+        Minimum period of repeated camera_info errors, s.
+    """
+
+    def __init__(self, node: Node, cameras: Sequence[str], image_topic: str, transport: str,
+                 depth: int, on_image: Callable[[str, Any], None], throttle_s: float) -> None:
         self._node = node
         self._throttle_s = throttle_s
         self._sizes: dict[str, tuple[int, int]] = {}
+        qos = sensor_qos(depth)
+        msg_type, suffix = (Image, '') if transport == 'raw' else (CompressedImage, '/compressed')
+        for cam in cameras:
+            node.create_subscription(msg_type, f'{cam}/{image_topic}{suffix}',
+                                     partial(on_image, cam), qos)
+            node.create_subscription(CameraInfo, f'{cam}/camera_info',
+                                     partial(self._on_info, cam), qos)
 
-    def on_info(self, camera: str, msg: CameraInfo) -> None:
+    def _on_info(self, camera: str, msg: CameraInfo) -> None:
         """camera_info callback; an invalid one is logged (throttled) and ignored."""
         try:
             width, height, *_ = intrinsics_from_info(msg, camera)
@@ -103,6 +128,6 @@ class ImageSizes:
             return
         self._sizes[camera] = (width, height)
 
-    def get(self, camera: str) -> tuple[int, int] | None:
-        """``(width, height)`` from camera_info, or None before the first one."""
-        return self._sizes.get(camera)
+    def decode(self, camera: str, msg: Image | CompressedImage) -> UInt8Array:
+        """(H, W, 3) uint8 RGB of an image message of ``camera`` (raises ImageFormatError)."""
+        return image_from_msg(msg, source=camera, expected_size_px=self._sizes.get(camera))

@@ -2,8 +2,9 @@
 
 The dataclass is the single source of truth (house rule 9): every field becomes a parameter
 with a ``ParameterDescriptor`` carrying its documentation, unit and range; the resolved config
-is logged once at start-up; live changes are validated by building a new config and rejected
-with the validation message when it fails.
+is logged once at start-up, every value at DEBUG and one INFO line with the values that differ
+from the defaults; live changes are validated by building a new config and rejected with the
+validation message when it fails.
 """
 from __future__ import annotations
 
@@ -40,6 +41,17 @@ def _descriptor(name: str, meta: dict[str, Any], default: Any, read_only: bool
     return desc
 
 
+def _log_parameters(node: Node, defaults: dict[str, Any], values: dict[str, Any]) -> None:
+    """Every resolved value at DEBUG; one INFO line with the count and the values that differ
+    from the defaults (the ones a reader of the log needs to reproduce the run)."""
+    logger = node.get_logger()
+    for name, value in values.items():
+        logger.debug(f'param {name} = {value!r}')
+    changed = [f'{n}={v!r}' for n, v in values.items() if v != defaults[n]]
+    summary = ', '.join(changed) if changed else 'all defaults'
+    logger.info(f'{len(values)} parameters ({summary}; all at debug level)')
+
+
 def declare_config(node: Node, cls: type[T], *, read_only: tuple[str, ...] = (),
                    on_change: Callable[[T], None] | None = None) -> T:
     """Declare every field of ``cls`` as a parameter of ``node`` and return the config.
@@ -71,8 +83,7 @@ def declare_config(node: Node, cls: type[T], *, read_only: tuple[str, ...] = (),
     except ConfigError as err:
         node.get_logger().fatal(f'invalid parameters: {err}')
         raise
-    for name in defaults:
-        node.get_logger().info(f'param {name} = {current[name]!r}')
+    _log_parameters(node, defaults, flatten(config))
 
     def _validate(params: list[Parameter]) -> SetParametersResult:
         candidate = dict(current)

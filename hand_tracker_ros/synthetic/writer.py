@@ -6,6 +6,7 @@ Layout of ``out_dir``: ``bag/`` (the rosbag2) and ``rig.yaml`` beside it. Topics
 topic                               type                            QoS
 ==================================  ==============================  ==========
 ``/camK/image_raw``                 sensor_msgs/msg/Image (rgb8)    sensor data
+  or ``/camK/image_raw/compressed``   sensor_msgs/msg/CompressedImage sensor data
 ``/camK/camera_info``               sensor_msgs/msg/CameraInfo      reliable
 ``/hand/ground_truth/joint_states`` sensor_msgs/msg/JointState      reliable
 ``/hand/ground_truth/state``        hand_tracker_msgs/msg/HandState reliable
@@ -18,22 +19,30 @@ from pathlib import Path
 import numpy as np
 
 from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues, camera_info_msg,
-                                           hand_state_msg, image_msg, joint_state_msg)
+                                           compressed_image_msg, hand_state_msg, image_msg,
+                                           joint_state_msg)
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
+from hand_tracker_ros.progress import progress
 from hand_tracker_ros.synthetic.sequence import SyntheticFrame, SyntheticSequence
 
 GT_JOINTS_TOPIC = '/hand/ground_truth/joint_states'
 GT_STATE_TOPIC = '/hand/ground_truth/state'
 STATUS_TRACKING = 1
+IMAGE_FORMATS = ('raw', 'jpeg', 'png')
 
 
 def image_topic(camera: str) -> str:
     """``/<camera>/image_raw``."""
     return f'/{camera}/image_raw'
+
+
+def compressed_image_topic(camera: str) -> str:
+    """``/<camera>/image_raw/compressed``, image_transport's name for the compressed stream."""
+    return f'{image_topic(camera)}/compressed'
 
 
 def info_topic(camera: str) -> str:
@@ -58,8 +67,15 @@ def ground_truth_state(sequence: SyntheticSequence, frame: SyntheticFrame,
 
 
 def write_sequence(sequence: SyntheticSequence, out_dir: str | Path, *,
-                   storage: str = 'mcap') -> Path:
-    """Render every frame into ``out_dir/bag`` and write ``out_dir/rig.yaml``; return the bag."""
+                   storage: str = 'mcap', image_format: str = 'raw') -> Path:
+    """Render every frame into ``out_dir/bag`` and write ``out_dir/rig.yaml``; return the bag.
+
+    ``image_format`` is ``raw`` (rgb8 ``Image`` on ``/camK/image_raw``) or ``jpeg``/``png``
+    (``CompressedImage`` on ``/camK/image_raw/compressed``).
+    """
+    if image_format not in IMAGE_FORMATS:
+        msg = f'image_format must be one of {", ".join(IMAGE_FORMATS)}, got {image_format!r}'
+        raise ConfigError(msg)
     out = Path(out_dir)
     if out.exists() and any(out.iterdir()):
         msg = f'output directory {out} exists and is not empty'
@@ -68,17 +84,22 @@ def write_sequence(sequence: SyntheticSequence, out_dir: str | Path, *,
     rig = sequence.rig
     rig.to_yaml(out / 'rig.yaml')
     bag = out / 'bag'
+    raw = image_format == 'raw'
+    topic_of = image_topic if raw else compressed_image_topic
+    msgtype = 'sensor_msgs/msg/Image' if raw else 'sensor_msgs/msg/CompressedImage'
     with BagWriter(bag, storage=storage) as writer:
         for cam in rig.names:
-            writer.add_topic(image_topic(cam), 'sensor_msgs/msg/Image', qos='sensor_data')
+            writer.add_topic(topic_of(cam), msgtype, qos='sensor_data')
             writer.add_topic(info_topic(cam), 'sensor_msgs/msg/CameraInfo')
         writer.add_topic(GT_JOINTS_TOPIC, 'sensor_msgs/msg/JointState')
         writer.add_topic(GT_STATE_TOPIC, 'hand_tracker_msgs/msg/HandState')
-        for frame in sequence:
+        for frame in progress(sequence, total=len(sequence), desc='synth', unit='frame'):
             for camera, image in zip(rig.cameras, frame.images):
                 frame_id = optical_frame(camera.name)
-                writer.write(image_topic(camera.name), frame.stamp_ns,
-                             image_msg(image, frame.stamp_ns, frame_id))
+                writer.write(topic_of(camera.name), frame.stamp_ns,
+                             image_msg(image, frame.stamp_ns, frame_id) if raw else
+                             compressed_image_msg(image, frame.stamp_ns, frame_id,
+                                                  image_format))
                 writer.write(info_topic(camera.name), frame.stamp_ns, camera_info_msg(
                     CameraInfoValues(frame.stamp_ns, frame_id, camera.width, camera.height,
                                      camera.K, camera.dist, 'plumb_bob')))

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import logging
 import sqlite3
 
 import numpy as np
@@ -10,6 +11,7 @@ from hand_tracker_ros.bags import convert
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.errors import BagFormatError
+from hand_tracker_ros.vision.image_codec import image_from_msg
 
 STORAGES = ['mcap', 'sqlite3']
 
@@ -18,7 +20,7 @@ def _check_frame(samples, i, decoded):
     """Compare the decoded messages of frame ``i`` (topic -> msg) with the written values."""
     stamp = samples.T0_NS + i * samples.PERIOD_NS
     image = decoded['/cam0/image_raw']
-    np.testing.assert_array_equal(convert.image_from_msg(image), samples.image(i))
+    np.testing.assert_array_equal(image_from_msg(image, source='/cam0/image_raw'), samples.image(i))
     assert convert.stamp_ns_of(image.header) == stamp
     info = convert.camera_info_from_msg(decoded['/cam0/camera_info'])
     np.testing.assert_array_equal(info.K, samples.camera_info(stamp).K)
@@ -78,6 +80,13 @@ def test_independent_mcap_reader_decodes_every_type(make_bag, samples):
         pixels = np.frombuffer(image.data, np.uint8).reshape(image.height, image.width, 3)
         np.testing.assert_array_equal(pixels, samples.image(i))
         _check_frame(samples, i, {**frame, '/cam0/image_raw': image})
+
+
+@pytest.mark.parametrize('storage', STORAGES)
+def test_empty_topic_filter_yields_nothing(make_bag, storage):
+    with BagReader(make_bag(storage)) as bag:
+        assert list(bag.messages(topics=[])) == []
+        assert list(bag.decoded(topics=[])) == []
 
 
 def test_unknown_topic_filter_lists_the_bag_topics(make_bag):
@@ -212,3 +221,18 @@ def test_damage_inside_a_chunk_raises_while_iterating(make_bag, samples):
     mcap.write_bytes(bytes(data))
     with BagReader(path) as bag, pytest.raises(BagFormatError, match='damaged after'):
         list(bag.messages())
+
+
+def test_intact_messages_stop_at_the_damage_with_a_warning(make_bag, samples, caplog):
+    path = make_bag('mcap')
+    mcap = path / f'{path.name}.mcap'
+    data = bytearray(mcap.read_bytes())
+    stamp = (samples.T0_NS + 2 * samples.PERIOD_NS).to_bytes(8, 'little')
+    start = data.index(stamp + stamp) - 1 - 8 - 2 - 4   # as in the test above
+    data[start + 1:start + 9] = (2**62).to_bytes(8, 'little')
+    mcap.write_bytes(bytes(data))
+    with caplog.at_level(logging.WARNING), BagReader(path) as bag:
+        stamps = [stamp_ns for _, _, stamp_ns, _ in bag.intact_messages()]
+    assert max(stamps, default=samples.T0_NS) < samples.T0_NS + 2 * samples.PERIOD_NS
+    assert 'damaged after the messages read so far' in caplog.text
+    assert 'using the messages before the damage' in caplog.text

@@ -78,11 +78,11 @@ def test_features_node_matches_the_core_and_survives_bad_images(node_process, ro
         spin_until(lambda: False, 0.3)  # pace the frames like a camera would
     stamps = [f.stamp_ns for f in sequence]
     assert spin_until(lambda: all((c, 'flow', stamps[-1]) in received for c in CAMERAS), 30.0)
-    bad = Image(height=240, width=320, encoding='yuv422', step=640)
-    bad.data = bytes(240 * 640)
+    bad = Image(height=240, width=320, encoding='64FC1', step=2560)
+    bad.data = bytes(240 * 2560)
     bad.header.stamp.sec = 1
     pubs['cam0'].publish(bad)
-    assert spin_until(lambda: 'yuv422' in features.output(), 20.0)
+    assert spin_until(lambda: "unsupported encoding '64FC1'" in features.output(), 20.0)
     header = Header()
     header.stamp.sec = 1_800_000_000
     pubs['cam0'].publish(image_msg(sequence.frame(0).images[0], header))
@@ -93,3 +93,33 @@ def test_features_node_matches_the_core_and_survives_bad_images(node_process, ro
     np.testing.assert_allclose(received[('cam1', 'flow', stamps[1])],
                                expected[('cam1', stamps[1])].flow.flow_px, atol=1e-6)
     assert features.proc.poll() is None
+
+
+def test_features_node_reads_the_compressed_transport(node_process, ros, hand_model):
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import CompressedImage, Image
+
+    from hand_tracker_ros.vision.image_codec import compress_rgb
+
+    node, spin_until = ros
+    features = node_process('features', '-p', 'cameras:=[cam0]',
+                            '-p', 'image_transport:=compressed')
+    image = SyntheticSequence(SynthConfig(motion='tapping', n_frames=1, n_cameras=1),
+                              hand_model).frame(0).images[0]
+    received: list[np.ndarray] = []
+    pub = node.create_publisher(CompressedImage, 'cam0/image_raw/compressed',
+                                qos_profile_sensor_data)
+    sub = node.create_subscription(
+        Image, 'cam0/edges', lambda m: received.append(
+            np.frombuffer(m.data, np.uint8).reshape(m.height, m.width)), 10)
+    assert spin_until(lambda: pub.get_subscription_count() and sub.get_publisher_count(), 30.0)
+    data, fmt = compress_rgb(image, 'png')   # lossless: the node sees exactly ``image``
+    msg = CompressedImage(format=fmt)
+    msg.data = data.tobytes()
+    for _ in range(100):
+        pub.publish(msg)
+        if spin_until(lambda: bool(received), 0.2):
+            break
+    assert received, features.output()
+    expected = FeatureExtractor('cam0', FeaturesConfig()).process(image, 0)
+    np.testing.assert_array_equal(received[0], edge_image(expected.edges))

@@ -57,3 +57,23 @@ def test_bad_parameter_is_a_clear_startup_error() -> None:
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode != 0
     assert 'sync_slop_ms' in proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize('level, param_lines', [('info', 0), ('debug', 'all')])
+def test_parameters_are_one_info_line_and_each_at_debug(node_process, level,
+                                                        param_lines) -> None:
+    from hand_tracker_ros.config import flatten
+    from hand_tracker_ros.node_config import FeaturesNodeConfig
+    from hand_tracker_ros.ros_io.graph import wait_for_nodes
+
+    node = node_process('features', '-p', 'cameras:=[left,right]', '--log-level', level)
+    assert wait_for_nodes(['features'], timeout_s=60.0) == {'features'}
+    assert node.stop() == 0
+    lines = node.output().splitlines()
+    summaries = [line for line in lines if 'parameters (' in line]
+    assert len(summaries) == 1 and '[INFO]' in summaries[0], lines
+    assert f"{len(flatten(FeaturesNodeConfig()))} parameters (cameras=('left', 'right'); " \
+        in summaries[0]
+    each = [line for line in lines if '] param ' in line or ': param ' in line]
+    expected = len(flatten(FeaturesNodeConfig())) if param_lines == 'all' else 0
+    assert len(each) == expected, lines

@@ -1,0 +1,33 @@
+"""`hand-tracker urdf [--out FILE]`: the hand's URDF, whose joints are the JointState names.
+
+The repository's ``urdf/hand.urdf`` (installed to ``share/hand_tracker_ros/urdf/``) is this
+command's output with the defaults (a test checks it): give it to ``robot_state_publisher`` as
+``robot_description`` and the tracker's ``joint_states`` pose it.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.model.urdf import urdf_text
+
+
+def add_parser(sub: Any) -> None:
+    """Register the verb."""
+    parser = sub.add_parser('urdf', help="print the hand's URDF", description=__doc__)
+    parser.add_argument('--out', metavar='FILE', help='write it to FILE instead of stdout')
+    parser.add_argument('--root-link', default='world',
+                        help='link the hand hangs from (default: world)')
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print or write the URDF."""
+    text = urdf_text(HandModel.build(), root_link=args.root_link) + '\n'
+    if args.out:
+        Path(args.out).write_text(text)
+    else:
+        print(text, end='')
+    return 0
