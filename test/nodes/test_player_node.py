@@ -117,7 +117,7 @@ def test_player_waits_for_the_asked_number_of_subscribers(node_process, ros, syn
     player = node_process('player', '-p', f'bag:={synth_bag}',
                           '-p', 'wait_topics:=[/cam0/image_raw]', '-p', 'wait_subscriber_count:=2',
                           '-p', 'wait_for_subscribers_s:=60.0')
-    assert spin_until(lambda: 'wait_subscriber_count = 2' in player.output(), 30.0), \
+    assert spin_until(lambda: 'wait_subscriber_count=2' in player.output(), 30.0), \
         player.output()
     spin_until(lambda: False, 2.0)
     assert not first['/cam0/image_raw'] and player.proc.poll() is None
