@@ -30,17 +30,36 @@ def ros_list(values: Iterable[str]) -> str:
     return '[' + ','.join(values) + ']'
 
 
-def player_waits_for_image_consumers(cameras: Iterable[str]) -> tuple[str, ...]:
-    """Player ROS arguments that hold playback (at most 60 s) until both ``features`` and
-    ``salient_points`` subscribe to every camera's ``image_raw``."""
+# The two ways to run the tracking nodes (README "Composed or distributed"): the node
+# processes of each, and the ROS arguments that select the tracker's inputs.
+GRAPH_MODES = ('composed', 'distributed')
+TRACKING_PROCESSES = {'composed': ('tracker',),
+                      'distributed': ('features', 'salient_points', 'tracker')}
+TRACKER_INPUTS = {'composed': 'images', 'distributed': 'features'}
+IMAGE_READERS = {'composed': 1, 'distributed': 2}    # processes subscribing to the images
+# The nodes of the tracker process in each mode.
+PROCESS_NODES = {'composed': ('features', 'salient_points', 'tracker'),
+                 'distributed': ('tracker',)}
+
+
+def tracker_mode_args(mode: str) -> tuple[str, ...]:
+    """The tracker's ROS arguments for graph ``mode``."""
+    return ('-p', f'inputs:={TRACKER_INPUTS[mode]}')
+
+
+def player_waits_for_image_consumers(cameras: Iterable[str], mode: str) -> tuple[str, ...]:
+    """Player ROS arguments that hold playback (at most 60 s) until every process that reads
+    images (the composed tracker, or ``features`` and ``salient_points``) subscribes to every
+    camera's ``image_raw``."""
     images = ros_list(f'/{c}/image_raw' for c in cameras)
-    return ('-p', f'wait_topics:={images}', '-p', 'wait_subscriber_count:=2',
+    return ('-p', f'wait_topics:={images}', '-p', f'wait_subscriber_count:={IMAGE_READERS[mode]}',
             '-p', 'wait_for_subscribers_s:=60.0')
 
 
 @dataclass(frozen=True)
 class ProcessSpec:
-    """One child process: a node executable with its ROS arguments."""
+    """One child process: a node executable with its ROS arguments (``name`` labels its
+    output lines; the nodes keep their own names, so a composed process keeps all three)."""
 
     name: str
     executable: str
@@ -48,9 +67,9 @@ class ProcessSpec:
     env: Mapping[str, str] = field(default_factory=dict)
 
     def argv(self) -> list[str]:
-        """Command line: the installed executable plus ``--ros-args ...`` if any."""
+        """Command line: the installed executable plus ``--ros-args ...``."""
         path = str(executable(self.executable))
-        return [path, '--ros-args', '-r', f'__node:={self.name}', *self.ros_args]
+        return [path, '--ros-args', *self.ros_args]
 
 
 class ProcessGroup:

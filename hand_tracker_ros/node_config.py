@@ -60,6 +60,23 @@ class TrackerNodeConfig:
                                      'a camera of the rig file')
     rig_file: str = param('', 'rig YAML (intrinsics + extrinsics, geometry.rig schema); '
                           'required: without it the node stays idle')
+    inputs: str = param('images', "'images': the composed graph, features and salient_points "
+                        "run in this process on <cam>/<image_topic>; 'features': the "
+                        'distributed graph, subscribe to the topics of features and '
+                        'salient_points processes', choices=('images', 'features'))
+    image_topic: str = param('image_raw', "with inputs 'images': image topic, relative to "
+                             'each camera namespace')
+    image_transport: str = param('raw', "with inputs 'images': 'raw' sensor_msgs/Image or "
+                                 "'compressed' (jpeg, png) on <cam>/<image_topic>/compressed",
+                                 choices=IMAGE_TRANSPORTS)
+    detect_every: int = param(1, "with inputs 'images': detect fingertips in every n-th "
+                              'tracked set while the hand is tracked (always while it is not)',
+                              low=1, high=1000)
+    budget_ms: float = param(0.0, "time for one set's main fit: a correspondence round that "
+                             'would end later is not started; 0 = the measured period '
+                             'between input sets', unit='ms', low=0.0, high=10000.0)
+    warm_up: bool = param(True, 'load the JIT kernels (tracking a few synthetic frames) '
+                          'before subscribing, so the first set is tracked at full speed')
     world_frame: str = param('world', 'fixed frame of every output (the rig\'s world frame)')
     sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set', unit='ms',
                                 low=0.1, high=1000.0)

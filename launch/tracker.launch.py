@@ -1,15 +1,18 @@
 """Launch the hand tracker graph in a full ROS 2 install (`ros2 launch hand_tracker_ros ...`).
 
-The same five nodes as `hand-tracker launch`, each with its config/<node>.yaml. ``launch`` and
-``launch_ros`` are not on PyPI, so this file is only used with a full ROS 2 installation; all
-logic lives in the nodes.
+The same graph as `hand-tracker launch`, each node with its config/<node>.yaml. With
+``mode:=composed`` (default) one ``tracker`` process also hosts ``features`` and
+``salient_points`` (data passed in memory); with ``mode:=distributed`` the three run as
+processes over DDS. ``launch`` and ``launch_ros`` are not on PyPI, so this file is only used
+with a full ROS 2 installation; all logic lives in the nodes.
 """
 import os
 
 from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
-from launch.substitutions import LaunchConfiguration
+from launch.conditions import IfCondition
+from launch.substitutions import LaunchConfiguration, PythonExpression
 from launch_ros.actions import Node
 
 NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')
@@ -18,6 +21,16 @@ NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')
 def generate_launch_description():
     share = get_package_share_directory('hand_tracker_ros')
     use_sim_time = LaunchConfiguration('use_sim_time')
+    mode = LaunchConfiguration('mode')
+    distributed = PythonExpression(["'", mode, "' == 'distributed'"])
+
+    def node(name, **extra):
+        # No `name=`: a node name remap would rename every node of the composed process.
+        return Node(package='hand_tracker_ros', executable=name, output='screen',
+                    parameters=[LaunchConfiguration(f'{name}_params'),
+                                {'use_sim_time': use_sim_time}, *extra.pop('more', ())],
+                    **extra)
+
     return LaunchDescription([
         *[DeclareLaunchArgument(f'{name}_params',
                                 default_value=os.path.join(share, 'config', f'{name}.yaml'),
@@ -25,10 +38,16 @@ def generate_launch_description():
           for name in NODES],
         DeclareLaunchArgument('use_sim_time', default_value='false',
                               description='follow /clock (bag replay)'),
+        DeclareLaunchArgument('mode', default_value='composed',
+                              choices=['composed', 'distributed'],
+                              description='composed: one tracker process hosting features '
+                                          'and salient_points; distributed: three processes'),
         SetEnvironmentVariable('FASTDDS_DEFAULT_PROFILES_FILE',
                                os.path.join(share, 'config', 'fastdds_large_data.xml')),
-        *[Node(package='hand_tracker_ros', executable=name, name=name, output='screen',
-               parameters=[LaunchConfiguration(f'{name}_params'),
-                           {'use_sim_time': use_sim_time}])
-          for name in NODES],
+        node('features', condition=IfCondition(distributed)),
+        node('salient_points', condition=IfCondition(distributed)),
+        node('tracker', more=[{'inputs': PythonExpression(
+            ["'features' if '", mode, "' == 'distributed' else 'images'"])}]),
+        node('player'),
+        node('recorder'),
     ])

@@ -1,14 +1,17 @@
 """`hand-tracker launch`: start the node graph as processes and stop it cleanly.
 
-Without ``--bag`` the five nodes run until Ctrl-C/SIGTERM (the player idles, the recorder
+The tracking nodes run composed (``--mode composed``, the default: one ``tracker`` process that
+also hosts ``features`` and ``salient_points``, data passed in memory) or distributed
+(``--mode distributed``: three processes over DDS); README "Composed or distributed".
+Without ``--bag`` the nodes run until Ctrl-C/SIGTERM (the player idles, the recorder
 records nothing): live cameras publish ``<cam>/image_raw`` and ``<cam>/camera_info``.
 
 With ``--bag`` (every node on sim time, the rig beside the bag unless ``--rig``):
 
 1. the four other nodes start, and the player starts once the tracker subscribes to every
    camera's features and the recorder to the outputs (at most ``--startup-timeout``);
-2. the player plays the bag (``/clock`` on) once ``features`` and ``salient_points`` both
-   listen to every camera's images, so no frame is played into an unconnected graph;
+2. the player plays the bag (``/clock`` on, at ``--rate``) once every image reader listens
+   to every camera's images, so no frame is played into an unconnected graph;
 3. the recorder writes the tracker's outputs to ``--record`` (default ``<bag>_tracked``);
 4. when the bag ends, the graph gets ``--drain`` seconds to finish the frames in flight, then
    every process is stopped.
@@ -26,34 +29,45 @@ from typing import Any
 
 from hand_tracker_ros.ament import share_file
 from hand_tracker_ros.geometry.rig import CameraRig
-from hand_tracker_ros.launcher import (ProcessGroup, ProcessSpec, player_waits_for_image_consumers,
-                                       ros_list)
+from hand_tracker_ros.launcher import (GRAPH_MODES, PROCESS_NODES, TRACKING_PROCESSES,
+                                       ProcessGroup, ProcessSpec,
+                                       player_waits_for_image_consumers, ros_list,
+                                       tracker_mode_args)
 
-NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')
+NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')   # in either mode
 RECORDED = ('/joint_states', '/hand_state', '/markers', '/diagnostics')
 
 
 def graph_specs(params_file: str | None = None, *, rig: str | None = None,
-                bag: str | None = None, record: str | None = None) -> list[ProcessSpec]:
-    """One process per node: its ``config/<node>.yaml``, the user's file, then overrides."""
-    extra: dict[str, list[str]] = {name: [] for name in NODES}
+                bag: str | None = None, record: str | None = None, mode: str = 'composed',
+                rate: float | None = None) -> list[ProcessSpec]:
+    """One process per executable of ``mode`` plus player and recorder: its
+    ``config/<node>.yaml``, the user's file, then overrides."""
+    processes = (*TRACKING_PROCESSES[mode], 'player', 'recorder')
+    extra: dict[str, list[str]] = {name: [] for name in processes}
+    extra['tracker'] += list(tracker_mode_args(mode))
     names = list(CameraRig.from_yaml(rig).names) if rig else []
     if rig:
-        for name in ('features', 'salient_points', 'tracker'):
+        for name in TRACKING_PROCESSES[mode]:
             extra[name] += ['-p', f'cameras:={ros_list(names)}']
         extra['tracker'] += ['-p', f'rig_file:={Path(rig).resolve()}']
     if bag:
-        for name in NODES:
+        for name in processes:
             extra[name] += ['-p', 'use_sim_time:=true']
         extra['player'] += ['-p', f'bag:={bag}']
+        if rate is not None:
+            extra['player'] += ['-p', f'playback.rate:={rate}']
         if names:
-            extra['player'] += player_waits_for_image_consumers(names)
+            extra['player'] += player_waits_for_image_consumers(names, mode)
         extra['recorder'] += ['-p', f'output:={record}', '-p', f'topics:={ros_list(RECORDED)}']
     user = ['--params-file', params_file] if params_file else []
-    return [ProcessSpec(name=name, executable=name,
-                        ros_args=('--params-file', str(share_file(f'config/{name}.yaml')),
-                                  *user, *extra[name]))
-            for name in NODES]
+    # A composed tracker process hosts the features and salient_points nodes too: their
+    # files go in as well (each node reads the section under its own name).
+    hosted = {'tracker': PROCESS_NODES[mode]}
+    return [ProcessSpec(name=name, executable=name, ros_args=(
+        *(arg for node in hosted.get(name, (name,))
+          for arg in ('--params-file', str(share_file(f'config/{node}.yaml')))),
+        *user, *extra[name])) for name in processes]
 
 
 def add_parser(sub: Any) -> None:
@@ -64,6 +78,12 @@ def add_parser(sub: Any) -> None:
     parser.add_argument('--rig', help='rig YAML (default with --bag: rig.yaml beside the bag)')
     parser.add_argument('--params', help='ros__parameters YAML passed to every node')
     parser.add_argument('--record', help='output bag of the tracker (default <bag>_tracked)')
+    parser.add_argument('--mode', choices=GRAPH_MODES, default='composed',
+                        help='composed: one tracker process hosting features and '
+                             'salient_points (default); distributed: three processes')
+    parser.add_argument('--rate', type=float,
+                        help="with --bag: playback rate (default: the player's playback.rate, "
+                             '1.0 = real time)')
     parser.add_argument('--startup-timeout', type=float, default=120.0, metavar='S',
                         help='with --bag: longest wait for the graph to connect (default 120)')
     parser.add_argument('--drain', type=float, default=5.0, metavar='S',
@@ -76,7 +96,8 @@ def run(args: argparse.Namespace) -> int:
     """Start every node; on Ctrl-C/SIGTERM, or when the bag has played and drained, stop them."""
     rig = args.rig or (str(Path(args.bag).parent / 'rig.yaml') if args.bag else None)
     record = args.record or (f'{Path(args.bag).resolve()}_tracked' if args.bag else None)
-    specs = graph_specs(args.params, rig=rig, bag=args.bag, record=record)
+    specs = graph_specs(args.params, rig=rig, bag=args.bag, record=record, mode=args.mode,
+                        rate=args.rate)
     # With a bag the player starts last, once the graph is connected (module docstring).
     graph = ProcessGroup([s for s in specs if not (args.bag and s.name == 'player')])
     playback = ProcessGroup([s for s in specs if args.bag and s.name == 'player'])
@@ -100,7 +121,7 @@ def _play(playback: ProcessGroup, cameras: tuple[str, ...], args: argparse.Names
     """Steps 1, 2 and 4 of the module docstring, once the other nodes run."""
     from hand_tracker_ros.ros_io.graph import wait_for_tracking_graph  # rclpy only here
 
-    wait_for_tracking_graph(cameras, RECORDED, timeout_s=args.startup_timeout)
+    wait_for_tracking_graph(cameras, RECORDED, timeout_s=args.startup_timeout, mode=args.mode)
     playback.start()
     playback.wait_any()
     print(f'[launch] player exited; stopping the graph in {args.drain:g} s', flush=True)

@@ -1,8 +1,11 @@
 """`hand-tracker replay-eval BAG`: the live graph on a bag, scored and compared with offline.
 
-Plays the bag through the multi-process graph (player -> features, salient_points -> tracker
--> recorder), scores the recorded estimates against the bag's ground truth, then tracks the
-same bag with the offline path (``hand-tracker track``) and prints both and their difference.
+Plays the bag through the graph (player -> tracker, composed with features and
+salient_points or with them as processes (``--mode``) -> recorder) at ``--rate`` (default
+real time), both paths started at the ground-truth first pose. It prints the share of sets
+estimated, estimates per second, the latency and the error against the bag's ground truth,
+then tracks the same bag offline (``hand-tracker track``) and prints that error and the
+difference.
 """
 from __future__ import annotations
 
@@ -12,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from hand_tracker_ros.evaluation.replay import replay
+from hand_tracker_ros.evaluation.replay import live_summary, replay
+from hand_tracker_ros.launcher import GRAPH_MODES
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag
 
@@ -23,9 +27,11 @@ def add_parser(sub: Any) -> None:
                             description=__doc__)
     parser.add_argument('bag', help='synthetic rosbag2 (with ground truth)')
     parser.add_argument('--out', default='out/replay', help='output directory')
-    parser.add_argument('--rate', type=float, default=0.1,
-                        help='playback rate (default 0.1: slow enough that no set is dropped '
-                             'on a 2-core machine; 1.0 is real time)')
+    parser.add_argument('--rate', type=float, default=1.0,
+                        help='playback rate (default 1.0: real time)')
+    parser.add_argument('--mode', choices=GRAPH_MODES, default='composed',
+                        help='composed (default): one tracker process hosting features and '
+                             'salient_points; distributed: three processes')
     parser.add_argument('--rig', help='rig YAML (default: rig.yaml beside the bag)')
     parser.add_argument('--no-offline', action='store_true', help='skip the offline comparison')
     parser.set_defaults(run=run)
@@ -42,10 +48,9 @@ def offline_mean_error_mm(bag: str, rig: str | None) -> float:
 
 def run(args: argparse.Namespace) -> int:
     """Replay, score, compare."""
-    outcome = replay(args.bag, Path(args.out), rate=args.rate, rig_path=args.rig)
-    print(f'recorded {outcome.recorded_bag}: {outcome.joint_states} JointState for '
-          f'{outcome.input_sets} input frame sets '
-          f'({100.0 * outcome.joint_states / max(outcome.input_sets, 1):.0f} %)')
+    outcome = replay(args.bag, Path(args.out), rate=args.rate, rig_path=args.rig,
+                     mode=args.mode)
+    print(live_summary(outcome))
     if outcome.scores is None:
         print('no estimate matched a ground-truth stamp')
         return 1

@@ -1,7 +1,8 @@
-"""Bag-replay evaluation: the live multi-process graph scored like the offline path.
+"""Bag-replay evaluation: the live graph scored like the offline path.
 
-1. Start ``features``, ``salient_points`` and ``tracker`` (sim time, the bag's rig, the
-   cameras of the rig) and a ``recorder`` of the tracker's outputs.
+1. Start the tracking graph (``mode`` ``composed``: one ``tracker`` process that also hosts
+   ``features`` and ``salient_points``; ``distributed``: the three as processes) on sim time
+   with the bag's rig and cameras, and a ``recorder`` of the tracker's outputs.
 2. Play the bag with the ``player`` (``/clock`` before every message) at ``rate``, after every
    node has subscribed. Real time is ``rate = 1``; on a machine where one frame takes longer
    than a frame period the tracker skips sets (it always takes the newest), so for a
@@ -28,8 +29,9 @@ from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
-from hand_tracker_ros.launcher import (ProcessGroup, ProcessSpec, player_waits_for_image_consumers,
-                                       ros_list)
+from hand_tracker_ros.launcher import (TRACKING_PROCESSES, ProcessGroup, ProcessSpec,
+                                       player_waits_for_image_consumers, ros_list,
+                                       tracker_mode_args)
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
 
@@ -43,41 +45,53 @@ class ReplayOutcome:
 
     recorded_bag: Path
     input_sets: int          # frame sets in the bag (ground-truth stamps)
-    joint_states: int        # JointState messages the tracker published
+    joint_states: int        # JointState messages the tracker published (TRACKING sets)
     scores: SequenceScores | None
     states: dict[int, HandStateValues]   # recorded estimates by stamp (ns)
     errors_mm: FloatArray    # per scored frame, mean 3D joint error, in stamp order
+    latencies_ms: FloatArray  # per HandState: input stamp to the recorder, wall-clock ms
+    duration_s: float        # the bag's span of input sets, wall-clock s at the played rate
+
+    @property
+    def estimates_per_s(self) -> float:
+        """HandState messages (every processed set) per wall-clock second of playback."""
+        return len(self.states) / self.duration_s if self.duration_s > 0 else 0.0
+
+    @property
+    def tracked_share(self) -> float:
+        """Share of the input sets with a JointState (tracked, not LOST)."""
+        return self.joint_states / self.input_sets if self.input_sets else 0.0
 
 
 def graph_specs(bag: Path, rig_path: Path, cameras: list[str], out: Path, rate: float,
-                initial_pose: np.ndarray | None) -> tuple[list[ProcessSpec], ProcessSpec]:
+                initial_pose: np.ndarray | None, mode: str = 'composed'
+                ) -> tuple[list[ProcessSpec], ProcessSpec]:
     """The node processes and the player process of one replay."""
     sim = ('-p', 'use_sim_time:=true')
     cams = ('-p', f'cameras:={ros_list(cameras)}')
     # The parameter file first: later -p values override it.
     tracker_args = ['--params-file', str(share_file('config/tracker.yaml')), *sim, *cams,
-                    '-p', f'rig_file:={rig_path}']
+                    '-p', f'rig_file:={rig_path}', *tracker_mode_args(mode)]
     if initial_pose is not None:
         pose = ros_list(repr(float(v)) for v in initial_pose)
         tracker_args += ['-p', f'initial_pose:={pose}', '-p', 'initialization:=initial_pose']
-    nodes = [
-        ProcessSpec('features', 'features', (*sim, *cams)),
-        ProcessSpec('salient_points', 'salient_points', (*sim, *cams)),
-        ProcessSpec('tracker', 'tracker', tuple(tracker_args)),
-        ProcessSpec('recorder', 'recorder', (*sim, '-p', f'output:={out}',
-                                             '-p', f'topics:={ros_list(OUTPUT_TOPICS)}')),
-    ]
+    args = {'features': (*sim, *cams), 'salient_points': (*sim, *cams),
+            'tracker': tuple(tracker_args)}
+    nodes = [ProcessSpec(name, name, args[name]) for name in TRACKING_PROCESSES[mode]]
+    nodes.append(ProcessSpec('recorder', 'recorder', (
+        *sim, '-p', f'output:={out}', '-p', f'topics:={ros_list(OUTPUT_TOPICS)}')))
     player = ProcessSpec('player', 'player', (
         '-p', f'bag:={bag}', '-p', f'playback.rate:={rate}', '-p', 'publish_clock:=true',
-        *player_waits_for_image_consumers(cameras)))
+        *player_waits_for_image_consumers(cameras, mode)))
     return nodes, player
 
 
 def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
            rig_path: str | Path | None = None, init_from_ground_truth: bool = True,
            startup_s: float = 120.0, drain_s: float = 5.0, timeout_s: float = 3600.0,
-           on_started: Callable[[], None] | None = None) -> ReplayOutcome:
-    """Play ``bag`` through the live graph, record the outputs and score them.
+           on_started: Callable[[], None] | None = None, mode: str = 'composed'
+           ) -> ReplayOutcome:
+    """Play ``bag`` through the live graph (``mode``), record the outputs and score them.
 
     The player starts once the graph is connected: the tracker subscribes to every camera's
     features and the recorder to the outputs (at most ``startup_s``; a loaded machine can need
@@ -95,12 +109,12 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
     if recorded.exists():
         msg = f'{recorded} exists: choose another output directory'
         raise HandTrackerError(msg)
-    nodes, player = graph_specs(bag, rig_file, list(rig.names), recorded, rate, pose)
+    nodes, player = graph_specs(bag, rig_file, list(rig.names), recorded, rate, pose, mode)
     graph = ProcessGroup(nodes)
     graph.start()
     try:
         from hand_tracker_ros.ros_io.graph import wait_for_tracking_graph  # rclpy only here
-        wait_for_tracking_graph(rig.names, OUTPUT_TOPICS, timeout_s=startup_s)
+        wait_for_tracking_graph(rig.names, OUTPUT_TOPICS, timeout_s=startup_s, mode=mode)
         playback = ProcessGroup([player])
         playback.start()
         try:
@@ -115,25 +129,33 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
     finally:
         codes = graph.stop()
     LOG.info('graph exit codes: %s', codes)
-    return score_recording(recorded, truth, rig)
+    return score_recording(recorded, truth, rig, rate=rate,
+                           skip_first=init_from_ground_truth)
 
 
-def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: CameraRig
-                    ) -> ReplayOutcome:
-    """Score the ``/hand_state`` messages of the bag ``recorded`` against ``truth`` (by stamp)."""
+def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: CameraRig, *,
+                    rate: float = 1.0, skip_first: bool = True) -> ReplayOutcome:
+    """Score the ``/hand_state`` messages of the bag ``recorded`` against ``truth`` (by
+    stamp); ``skip_first``: the first set is where the tracker was put (not scored)."""
     with BagReader(recorded) as reader:
         topics = reader.topics
         # By header stamp (the input set's), not by the bag's receive time: with sim time
         # that is the newest /clock the recorder got, 0 before it matched the player's /clock
         # and one frame late when the tracker needed longer than the player's frame period.
-        decoded = (hand_state_from_msg(msg) for _, _, _, msg
-                   in reader.decoded(topics=['/hand_state'])) if '/hand_state' in topics else ()
-        states = {state.stamp_ns: state for state in decoded}
+        # The receive time still gives the latency (sim time runs at ``rate``).
+        states, received = {}, {}
+        for _, _, recv_ns, msg in (reader.decoded(topics=['/hand_state'])
+                                   if '/hand_state' in topics else ()):
+            state = hand_state_from_msg(msg)
+            states[state.stamp_ns], received[state.stamp_ns] = state, recv_ns
         n_joint_states = topics['/joint_states'].count if '/joint_states' in topics else 0
-    # The first set is where both paths are initialised (from ground truth): not scored.
-    common = sorted(set(states) & set(truth) - {min(truth, default=None)})
+    latencies = np.array([(recv - stamp) / 1e6 / rate for stamp, recv in received.items()])
+    duration_s = ((max(truth) - min(truth)) / 1e9 / rate + 1 / 30.0) if truth else 0.0
+    common = sorted(set(states) & set(truth)
+                    - ({min(truth, default=None)} if skip_first else set()))
     if not common:
-        return ReplayOutcome(recorded, len(truth), n_joint_states, None, states, np.zeros(0))
+        return ReplayOutcome(recorded, len(truth), n_joint_states, None, states, np.zeros(0),
+                             latencies, duration_s)
     model = HandModel.build()
     parts = face_parts(model.faces, model.vertex_part)
     estimate = np.array([states[s].keypoints_m for s in common])
@@ -144,4 +166,15 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
     scores = score_sequence(estimate, true, [states[s].status == 2 for s in common],
                             rig.cameras, depth, [states[s].processing_time_s for s in common])
     return ReplayOutcome(recorded, len(truth), n_joint_states, scores, states,
-                         joint_errors_mm(estimate, true))
+                         joint_errors_mm(estimate, true), latencies, duration_s)
+
+
+def live_summary(outcome: ReplayOutcome) -> str:
+    """One paragraph: sets estimated and tracked, estimates per second, latency."""
+    latency = outcome.latencies_ms
+    timing = (f'latency (input stamp to recorded estimate) median {np.median(latency):.0f} ms, '
+              f'p95 {np.percentile(latency, 95):.0f} ms' if latency.size else 'no latency')
+    return (f'recorded {outcome.recorded_bag}: {len(outcome.states)} of {outcome.input_sets} '
+            f'input sets estimated ({100.0 * len(outcome.states) / max(outcome.input_sets, 1):.0f}'
+            f' %), {outcome.joint_states} tracked ({100.0 * outcome.tracked_share:.0f} %, the '
+            f'others LOST), {outcome.estimates_per_s:.1f} estimates/s; {timing}')

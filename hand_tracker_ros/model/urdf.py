@@ -22,7 +22,9 @@ _FMT = '{:.6g}'
 
 
 def _vec(values: np.ndarray) -> str:
-    return ' '.join(_FMT.format(float(v)) for v in values)
+    # Rounded to 1e-9 (nm, nrad) first: the last bits of the kinematic chain's products differ
+    # between BLAS builds, and the file must not change with the machine that wrote it.
+    return ' '.join(_FMT.format(float(v) + 0.0) for v in np.round(values, 9))
 
 
 def _rpy(rot: np.ndarray) -> np.ndarray:

@@ -43,24 +43,28 @@ def _help_text(config_cls: type) -> str:
     return '\n'.join(lines)
 
 
-def _spin(node: Node) -> None:
-    """Spin ``node`` until its context shuts down."""
-    if not node.context.ok():        # a signal came while the node was being built
+def _spin(nodes: Sequence[Node]) -> None:
+    """Spin ``nodes`` on one executor until their context shuts down."""
+    context = nodes[0].context
+    if not context.ok():        # a signal came while the nodes were being built
         return
-    executor = SingleThreadedExecutor(context=node.context)
-    executor.add_node(node)
-    while node.context.ok():
+    executor = SingleThreadedExecutor(context=context)
+    for node in nodes:
+        executor.add_node(node)
+    while context.ok():
         try:
             executor.spin_once(timeout_sec=_SPIN_PERIOD_S)
         except RuntimeError:
-            if node.context.ok():
+            if context.ok():
                 raise
             return
 
 
 def run_node(name: str, description: str, config_cls: type,
-             factory: Callable[[], Node], args: Sequence[str] | None = None) -> int:
-    """Parse non-ROS arguments, then create the node with ``factory`` and spin it."""
+             factory: Callable[[], Node | Sequence[Node]],
+             args: Sequence[str] | None = None) -> int:
+    """Parse non-ROS arguments, then create the node(s) with ``factory`` and spin them on one
+    executor (several nodes: a composed process, as an rclcpp component container)."""
     argv = list(sys.argv if args is None else args)
     parser = argparse.ArgumentParser(
         prog=name, description=description, epilog=_help_text(config_cls),
@@ -69,10 +73,11 @@ def run_node(name: str, description: str, config_cls: type,
     apply_ros_defaults()
     python_sigint = signal.signal(signal.SIGINT, lambda *_: None)
     rclpy.init(args=argv)
-    node = None
+    nodes: list[Node] = []
     try:
-        node = factory()
-        _spin(node)
+        made = factory()
+        nodes = [made] if isinstance(made, Node) else list(made)
+        _spin(nodes)
     except ExternalShutdownException:
         pass
     except Exception:
@@ -82,7 +87,7 @@ def run_node(name: str, description: str, config_cls: type,
         if rclpy.ok():
             raise
     finally:
-        if node is not None:
+        for node in reversed(nodes):
             node.destroy_node()
         rclpy.try_shutdown()
         signal.signal(signal.SIGINT, python_sigint)

@@ -1,27 +1,36 @@
 """The `features` node: edges, foreground mask and optical flow per camera.
 
-For every camera ``<cam>`` of the ``cameras`` parameter it subscribes (sensor-data QoS) to
-``<cam>/image_raw`` (or, with ``image_transport:=compressed``, the jpeg/png stream
-``<cam>/image_raw/compressed``) and ``<cam>/camera_info`` and publishes, reliably and with the input's
-header: ``<cam>/edges`` (mono8, 255 on edges), ``<cam>/edge_orientation`` (32FC1, edge-normal
-direction in rad, what the tracker's orientation check needs), ``<cam>/mask`` (mono8, 255 on the
-hand) and ``<cam>/flow`` (32FC2, px from the previous frame; not published on a camera's first
-frame). A bad image gets one throttled error and is dropped; the node keeps running.
+Standalone (the distributed graph) it subscribes, for every camera ``<cam>`` of the
+``cameras`` parameter (sensor-data QoS), to ``<cam>/image_raw`` (or, with
+``image_transport:=compressed``, the jpeg/png stream ``<cam>/image_raw/compressed``) and
+``<cam>/camera_info`` and publishes, reliably and with the input's header: ``<cam>/edges``
+(mono8, 255 on edges), ``<cam>/edge_orientation`` (32FC1, edge-normal direction in rad, what
+the tracker's orientation check needs), ``<cam>/mask`` (mono8, 255 on the hand) and
+``<cam>/flow`` (32FC2, px from the previous frame; not published on a camera's first frame).
+A bad image gets one throttled error and is dropped; the node keeps running.
+
+In the composed tracker process (``in_process=True``) it subscribes to nothing: the tracker
+hands it each synchronized image set it is about to track (:meth:`FeaturesNode.process_set`)
+and takes the features in memory. The same topics are then published only while someone
+subscribes to them (to look at the features), so nothing is serialized otherwise.
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import CompressedImage, Image
+from std_msgs.msg import Header
 
+from hand_tracker_ros._typing import UInt8Array
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.node_config import FeaturesNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io.images import ImageInputs, image_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
-from hand_tracker_ros.vision.features import FeatureExtractor
+from hand_tracker_ros.vision.features import CameraFeatures, MultiCameraFeatures
 from hand_tracker_ros.vision.visualize import edge_image, flow_image, mask_image
 
 DESCRIPTION = 'Per-camera image features: edges, foreground mask and optical flow.'
@@ -30,35 +39,63 @@ THROTTLE_S = 5.0
 
 
 class FeaturesNode(Node):
-    """Per-camera feature extraction."""
+    """Per-camera feature extraction (module docstring)."""
 
-    def __init__(self) -> None:
-        super().__init__('features')
-        bridge_core_logging(self)
+    def __init__(self, *, in_process: bool = False, cameras: Sequence[str] = ()) -> None:
+        # In process the tracker's cameras override the parameter (one list for the graph).
+        super().__init__('features', parameter_overrides=[
+            Parameter('cameras', Parameter.Type.STRING_ARRAY, list(cameras))] if cameras else [])
+        if not in_process:          # in process the core's records go to the tracker's log
+            bridge_core_logging(self)
         self.config = declare_config(self, FeaturesNodeConfig)
-        self._extractors = {c: FeatureExtractor(c, self.config.features)
-                            for c in self.config.cameras}
-        self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
-                                   self.config.image_transport, self.config.queue_depth,
-                                   self._on_image, THROTTLE_S)
+        self._in_process = in_process
+        self._features = MultiCameraFeatures(self.config.cameras, self.config.features)
+        self._index = {c: i for i, c in enumerate(self.config.cameras)}
         self._pubs = {c: {o: self.create_publisher(Image, f'{c}/{o}', 10) for o in OUTPUTS}
                       for c in self.config.cameras}
-        self.get_logger().info(f'features for cameras {list(self.config.cameras)}')
+        if not in_process:
+            self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
+                                       self.config.image_transport, self.config.queue_depth,
+                                       self._on_image, THROTTLE_S)
+        where = 'in the tracker process' if in_process else 'from the image topics'
+        self.get_logger().info(f'features for cameras {list(self.config.cameras)} {where}')
+
+    def process_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header]
+                    ) -> tuple[CameraFeatures, ...]:
+        """Features of one synchronized set, cameras in ``cameras`` order (in process)."""
+        stamps = [h.stamp.sec * 10**9 + h.stamp.nanosec for h in headers]
+        features = self._features.process(images_rgb, stamps)
+        for camera, feat, header in zip(self.config.cameras, features, headers):
+            self._publish(camera, feat, header)
+        return features
 
     def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
         try:
             rgb = self._inputs.decode(camera, msg)
             stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-            features = self._extractors[camera].process(rgb, stamp_ns)
+            features = self._features.extractors[self._index[camera]].process(rgb, stamp_ns)
         except HandTrackerError as err:
             self.get_logger().error(f'dropping a frame: {err}', throttle_duration_sec=THROTTLE_S)
             return
-        pubs = self._pubs[camera]
-        pubs['edges'].publish(image_msg(edge_image(features.edges), msg.header))
-        pubs['edge_orientation'].publish(image_msg(features.edges.orientation_rad, msg.header))
-        pubs['mask'].publish(image_msg(mask_image(features.mask), msg.header))
-        if features.flow is not None:
-            pubs['flow'].publish(image_msg(flow_image(features.flow), msg.header))
+        self._publish(camera, features, msg.header)
+
+    def _publish(self, camera: str, features: CameraFeatures, header: Header) -> None:
+        """Publish one camera's features (in process: only the topics someone reads)."""
+        images = {'edges': lambda: edge_image(features.edges),
+                  'edge_orientation': lambda: features.edges.orientation_rad,
+                  'mask': lambda: mask_image(features.mask),
+                  'flow': (lambda: flow_image(features.flow)) if features.flow is not None
+                  else None}
+        for output, pub in self._pubs[camera].items():
+            pixels = images[output]
+            if pixels is None or (self._in_process and pub.get_subscription_count() == 0):
+                continue
+            pub.publish(image_msg(pixels(), header))
+
+    def destroy_node(self) -> None:
+        """Stop the feature threads, then the node."""
+        self._features.close()
+        super().destroy_node()
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -1,26 +1,35 @@
 """The `salient_points` node: trained fingertip detection per camera.
 
-For every camera ``<cam>`` of ``cameras`` it subscribes (sensor-data QoS) to
-``<cam>/image_raw`` (or, with ``image_transport:=compressed``, the jpeg/png stream
-``<cam>/image_raw/compressed``) and ``<cam>/camera_info`` and publishes ``<cam>/salient_points``
-(hand_tracker_msgs/SalientPoints, reliable, the input's header): unlabelled candidates
-(u, v in px, score in 0..1); the tracker assigns them to fingers. A bad image gets one throttled
-error and is dropped; the node keeps running.
+Standalone (the distributed graph), for every camera ``<cam>`` of ``cameras`` it subscribes
+(sensor-data QoS) to ``<cam>/image_raw`` (or, with ``image_transport:=compressed``, the
+jpeg/png stream ``<cam>/image_raw/compressed``) and ``<cam>/camera_info`` and publishes
+``<cam>/salient_points`` (hand_tracker_msgs/SalientPoints, reliable, the input's header):
+unlabelled candidates (u, v in px, score in 0..1); the tracker assigns them to fingers. A bad
+image gets one throttled error and is dropped; the node keeps running.
+
+In the composed tracker process (``in_process=True``) it subscribes to nothing: the tracker
+asks it for the detections of the sets it tracks (:meth:`SalientPointsNode.detect_set`), and
+``<cam>/salient_points`` is published only while someone subscribes to it.
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 from hand_tracker_msgs.msg import SalientPoints
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import CompressedImage, Image
+from std_msgs.msg import Header
 
+from hand_tracker_ros._typing import UInt8Array
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.node_config import SalientPointsNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io.images import ImageInputs, salient_points_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
+from hand_tracker_ros.tracking.observations import SalientDetections
 from hand_tracker_ros.vision.detector.detector import FingertipDetector
 
 DESCRIPTION = 'Per-camera fingertip (salient point) detection with the trained detector.'
@@ -28,19 +37,39 @@ THROTTLE_S = 5.0
 
 
 class SalientPointsNode(Node):
-    """Per-camera fingertip detection."""
+    """Per-camera fingertip detection (module docstring)."""
 
-    def __init__(self) -> None:
-        super().__init__('salient_points')
-        bridge_core_logging(self)
+    def __init__(self, *, in_process: bool = False, cameras: Sequence[str] = ()) -> None:
+        # In process the tracker's cameras override the parameter (one list for the graph).
+        super().__init__('salient_points', parameter_overrides=[
+            Parameter('cameras', Parameter.Type.STRING_ARRAY, list(cameras))] if cameras else [])
+        if not in_process:          # in process the core's records go to the tracker's log
+            bridge_core_logging(self)
         self.config = declare_config(self, SalientPointsNodeConfig)
+        self._in_process = in_process
         self._detector = FingertipDetector.load(config=self.config.detector)
-        self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
-                                   self.config.image_transport, self.config.queue_depth,
-                                   self._on_image, THROTTLE_S)
         self._pubs = {c: self.create_publisher(SalientPoints, f'{c}/salient_points', 10)
                       for c in self.config.cameras}
-        self.get_logger().info(f'fingertip detection for cameras {list(self.config.cameras)}')
+        # ONNX Runtime releases the GIL: two images at a time use both cores.
+        self._pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix='detector')
+        if not in_process:
+            self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
+                                       self.config.image_transport, self.config.queue_depth,
+                                       self._on_image, THROTTLE_S)
+        where = 'in the tracker process' if in_process else 'from the image topics'
+        self.get_logger().info(f'fingertip detection for cameras {list(self.config.cameras)} '
+                               f'{where}')
+
+    def detect_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header]
+                   ) -> list[SalientDetections]:
+        """Detections of one synchronized set, cameras in ``cameras`` order (in process)."""
+        tips = list(self._pool.map(self._detector.detect, images_rgb))
+        for camera, found, rgb, header in zip(self.config.cameras, tips, images_rgb, headers):
+            pub = self._pubs[camera]
+            if pub.get_subscription_count() > 0:
+                pub.publish(salient_points_msg(found, header, camera, rgb.shape[1],
+                                               rgb.shape[0]))
+        return tips
 
     def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
         try:
@@ -51,6 +80,11 @@ class SalientPointsNode(Node):
             return
         height, width = rgb.shape[:2]
         self._pubs[camera].publish(salient_points_msg(tips, msg.header, camera, width, height))
+
+    def destroy_node(self) -> None:
+        """Stop the detection threads, then the node."""
+        self._pool.shutdown(wait=True)
+        super().destroy_node()
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -2,9 +2,12 @@
 
 Topics (relative names, so namespaces and remaps work)
 ------------------------------------------------------
-Subscribed per camera ``<cam>`` of the ``cameras`` parameter (sensor-data QoS, depth
-``queue_depth``): ``<cam>/edges``, ``<cam>/edge_orientation``, ``<cam>/mask``, ``<cam>/flow``
-(from the ``features`` node), ``<cam>/salient_points`` (from ``salient_points``) and
+Subscribed per camera ``<cam>`` of ``cameras`` (sensor-data QoS, depth ``queue_depth``):
+with ``inputs:=images`` (default, the *composed* graph, :mod:`.composed`: the process also
+hosts the features and salient_points nodes, data in memory) ``<cam>/<image_topic>``
+(``image_transport`` raw or compressed); with ``inputs:=features`` (the *distributed* graph)
+``<cam>/edges``, ``<cam>/edge_orientation``, ``<cam>/mask``, ``<cam>/flow`` and
+``<cam>/salient_points`` from features and salient_points processes; and
 ``<cam>/camera_info``. Published: ``joint_states`` (JointState, only while TRACKING),
 ``hand_state`` (HandState, every processed set, LOST included), ``markers`` (MarkerArray,
 DELETEALL when not tracking), ``/diagnostics`` (every ``diagnostics_period_s``) and, with
@@ -13,18 +16,15 @@ frame ids ``world_frame`` (overlays: ``<cam>`` + ``optical_frame_suffix``).
 
 Data flow and threading
 -----------------------
-The ROS callbacks only decode: each message is checked and turned into arrays
-(``ros_io.observations.part_value``), grouped per camera by stamp
-(``ros_io.observations.FrameAssembler``; flow and salient points are optional, see there
-for the ``optional_wait_ms`` rule), and the camera frames go through our approximate-time
-synchronizer (``sync.approximate``, slop ``sync_slop_ms``). A complete set is put into a
-one-slot mailbox. A dedicated processing thread takes the set, builds the observations
-(edge lookup tables), runs the tracker and publishes. If a new set arrives before the thread
-took the previous one, the previous one is replaced and counted as skipped, so the node
-always works on the newest set and never queues more than one set beyond the one in
-progress. A plain thread was chosen over a MultiThreadedExecutor with callback groups
-because the one-slot mailbox states the "newest set wins" policy directly and the
-executor thread stays free for callbacks and timers whatever the tracker costs.
+The ROS callbacks only check and group: feature messages become arrays
+(``ros_io.observations.part_value``) grouped per camera by stamp
+(``ros_io.observations.FrameAssembler``, see there for ``optional_wait_ms``); image messages
+are kept as they are. Camera frames go through our approximate-time synchronizer
+(``sync.approximate``, slop ``sync_slop_ms``) and each complete set is offered to a
+:class:`hand_tracker_ros.pipeline.live.LivePipeline`, which observes the newest set on one
+thread and tracks and publishes on another. Skipped sets are counted; the session's
+constant-velocity prediction spans them. ``budget_ms`` (0: the measured period between sets)
+caps each main fit (:meth:`.TrackingSession.step`); played slowly, every set gets every round.
 
 Tracking policy: the node drives a :class:`hand_tracker_ros.tracking.session.TrackingSession`,
 the same one the offline pipeline uses (start, recovery, LOST, confidence; ``session.*``).
@@ -41,7 +41,7 @@ import threading
 import time
 import traceback
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import partial
 from types import MappingProxyType
 from typing import Any
@@ -53,7 +53,7 @@ from hand_tracker_msgs.msg import HandState, SalientPoints
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
-from sensor_msgs.msg import CameraInfo, Image, JointState
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
 from visualization_msgs.msg import MarkerArray
 
 from hand_tracker_ros.errors import ConfigError, HandTrackerError
@@ -65,11 +65,14 @@ from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io import outputs
 from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
-from hand_tracker_ros.ros_io.observations import (PARTS, CameraFrame, FrameAssembler,
+from hand_tracker_ros.ros_io.observations import (PARTS, FrameAssembler,
                                                   frame_observations, part_value, stamp_ns_of)
 from hand_tracker_ros.ros_io.params import declare_config
+from hand_tracker_ros.pipeline.live import LivePipeline
+from hand_tracker_ros.pipeline.warmup import warm_up
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
-from hand_tracker_ros.tracking.overlay import draw_overlay
+from hand_tracker_ros.tracking.observations import FrameObservations
+from hand_tracker_ros.tracking.overlay import observation_overlays
 from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 from hand_tracker_ros.tracking.session import TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker
@@ -79,30 +82,6 @@ THROTTLE_S = 5.0
 FLUSH_PERIOD_S = 0.01
 INFO_GRACE_S = 2.0
 SILENT_S = 1.0
-
-
-class LatestSet:
-    """A one-slot mailbox between the executor and the processing thread (newest wins)."""
-
-    def __init__(self) -> None:
-        self._cond = threading.Condition()
-        self._item: tuple[SyncedSet, float] | None = None
-        self.skipped = 0
-
-    def put(self, synced: SyncedSet, received_s: float) -> None:
-        """Offer a set (received at monotonic ``received_s``); replaces an untaken one."""
-        with self._cond:
-            self.skipped += self._item is not None
-            self._item = (synced, received_s)
-            self._cond.notify()
-
-    def take(self, timeout_s: float) -> tuple[SyncedSet, float] | None:
-        """The newest set, or None after ``timeout_s``."""
-        with self._cond:
-            if self._item is None:
-                self._cond.wait(timeout_s)
-            item, self._item = self._item, None
-            return item
 
 
 def _load_rig(config: TrackerNodeConfig) -> CameraRig:
@@ -124,8 +103,8 @@ class TrackerNode(Node):
         super().__init__('tracker')
         bridge_core_logging(self)
         self.config = declare_config(self, TrackerNodeConfig)
-        self._stop = threading.Event()
-        self._worker: threading.Thread | None = None
+        self._pipeline: LivePipeline[SyncedSet, FrameObservations] | None = None
+        self._session: TrackingSession | None = None
         if not self.config.rig_file:
             self.get_logger().error('no `rig_file` parameter: the tracker needs the camera '
                                     'rig (intrinsics + extrinsics); staying idle')
@@ -138,19 +117,40 @@ class TrackerNode(Node):
         if rig.world_frame != self.config.world_frame:
             self.get_logger().warning(f'rig extrinsics are in {rig.world_frame!r}; outputs are '
                                       f'labelled world_frame={self.config.world_frame!r}')
-        self._cameras = tuple(rig[c] for c in self.config.cameras)
-        self._by_name = {c.name: c for c in self._cameras}
+        self.cameras = tuple(rig[c] for c in self.config.cameras)
+        self._by_name = {c.name: c for c in self.cameras}
         self._model = HandModel.build()
         initial = (np.asarray(self.config.initial_pose, np.float64)
                    if self.config.initialization == 'initial_pose' else None)
-        self._tracker = HandTracker(self._model, self._cameras, self.config.tracking)
+        self._tracker = HandTracker(self._model, self.cameras, self.config.tracking)
         self._session = TrackingSession(self._tracker, self.config.session,
                                         initial_pose=initial)
         self._init_state()
-        self._create_interfaces()
-        self._worker = threading.Thread(target=self._work, name='tracker', daemon=True)
-        self._worker.start()
-        self.get_logger().info(f'tracking with cameras {list(self.config.cameras)}')
+        self._create_outputs()
+        if self.config.inputs == 'features':
+            self.start(lambda synced: frame_observations(synced.stamp_ns, synced.items,
+                                                         self.cameras))
+
+    @property
+    def configured(self) -> bool:
+        """True when the node has a rig and can track (else it idles)."""
+        return self._session is not None
+
+    @property
+    def session(self) -> TrackingSession:
+        """The tracking session (its status steers the in-process detection)."""
+        assert self._session is not None, 'the tracker has no rig'
+        return self._session
+
+    def start(self, observe: Callable[[SyncedSet], FrameObservations]) -> None:
+        """Warm up, then subscribe to the inputs and track: ``observe`` turns a synchronized
+        set (feature frames, or image messages with ``inputs:=images``) into observations."""
+        if self.config.warm_up:
+            self.get_logger().info(f'JIT kernels loaded in {warm_up(self._model):.1f} s')
+        self._pipeline = LivePipeline(observe, self._track, self._on_error)
+        self._create_inputs()
+        self.get_logger().info(f'ready: tracking with cameras {list(self.config.cameras)} '
+                               f'from {self.config.inputs}')
 
     def _init_state(self) -> None:
         cfg = self.config
@@ -158,7 +158,6 @@ class TrackerNode(Node):
             slop_ns=round(cfg.sync_slop_ms * 1e6), queue_size=cfg.sync_queue_size))
         self._assemblers = {c: FrameAssembler(c, cfg.optional_wait_ms / 1e3,
                                               cfg.max_pending_frames) for c in cfg.cameras}
-        self._mailbox = LatestSet()
         self._lock = threading.Lock()
         self._frames: Counter[str] = Counter()
         self._last_frame_s: dict[str, float] = {}
@@ -169,21 +168,12 @@ class TrackerNode(Node):
         self._period = self._new_period()
         self._status: TrackStatus | None = None
         self._reinits = 0
-        self._start_s = time.monotonic()
         self._logged: dict[str, float] = {}
+        self._last_set_s: float | None = None
+        self._set_period_s: float | None = None     # moving average of the set arrivals
 
-    def _create_interfaces(self) -> None:
+    def _create_outputs(self) -> None:
         cfg = self.config
-        sensor = QoSProfile(depth=cfg.queue_depth,
-                            reliability=qos_profile_sensor_data.reliability,
-                            history=qos_profile_sensor_data.history)
-        for cam in cfg.cameras:
-            for part in PARTS:
-                kind = SalientPoints if part == 'salient_points' else Image
-                self.create_subscription(kind, f'{cam}/{part}', partial(self._on_part, cam, part),
-                                         sensor)
-            self.create_subscription(CameraInfo, f'{cam}/camera_info',
-                                     partial(self._on_info, cam), sensor)
         self._pub_joints = self.create_publisher(JointState, 'joint_states', 10)
         self._pub_state = self.create_publisher(HandState, 'hand_state', 10)
         self._pub_markers = self.create_publisher(MarkerArray, 'markers', 10)
@@ -191,11 +181,33 @@ class TrackerNode(Node):
         self._pub_overlay = {c: self.create_publisher(Image, f'{c}/overlay', 2)
                              for c in cfg.cameras} if cfg.publish_overlay else {}
         # Wall-clock timers: frame waits and diagnostics must run even when sim time pauses.
-        steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(FLUSH_PERIOD_S, self._flush, clock=steady)
-        self.create_timer(cfg.diagnostics_period_s, self._diagnose, clock=steady)
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(cfg.diagnostics_period_s, self._diagnose, clock=self._steady)
 
-    # --- executor thread: decode, assemble, synchronize -----------------------------------
+    def _create_inputs(self) -> None:
+        cfg = self.config
+        sensor = QoSProfile(depth=cfg.queue_depth,
+                            reliability=qos_profile_sensor_data.reliability,
+                            history=qos_profile_sensor_data.history)
+        for cam in cfg.cameras:
+            if cfg.inputs == 'images':
+                kind, suffix = ((Image, '') if cfg.image_transport == 'raw'
+                                else (CompressedImage, '/compressed'))
+                self.create_subscription(kind, f'{cam}/{cfg.image_topic}{suffix}',
+                                         partial(self._on_image, cam), sensor)
+            else:
+                for part in PARTS:
+                    kind = SalientPoints if part == 'salient_points' else Image
+                    self.create_subscription(kind, f'{cam}/{part}',
+                                             partial(self._on_part, cam, part), sensor)
+            self.create_subscription(CameraInfo, f'{cam}/camera_info',
+                                     partial(self._on_info, cam), sensor)
+        if cfg.inputs == 'features':
+            self.create_timer(FLUSH_PERIOD_S, self._flush, clock=self._steady)
+
+    def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
+        if camera not in self._size_mismatch:
+            self._on_camera_frame(camera, stamp_ns_of(msg), msg)
 
     def _on_part(self, camera: str, part: str, msg: Image | SalientPoints) -> None:
         if camera in self._size_mismatch:
@@ -208,21 +220,29 @@ class TrackerNode(Node):
             return
         frame = self._assemblers[camera].add(part, stamp_ns_of(msg), value, time.monotonic())
         if frame is not None:
-            self._on_frame(frame)
+            self._on_camera_frame(camera, frame.stamp_ns, frame)
 
     def _flush(self) -> None:
         now = time.monotonic()
         for assembler in self._assemblers.values():
             for frame in assembler.expire(now):
-                self._on_frame(frame)
+                self._on_camera_frame(frame.camera_name, frame.stamp_ns, frame)
 
-    def _on_frame(self, frame: CameraFrame) -> None:
+    def _on_camera_frame(self, camera: str, stamp_ns: int, item: Any) -> None:
+        """(Executor thread.) One camera's frame, image message or assembled features, into
+        the synchronizer; complete sets go to the pipeline threads."""
         now = time.monotonic()
-        self._frames[frame.camera_name] += 1
-        self._last_frame_s[frame.camera_name] = now
-        self._first_frame_s.setdefault(frame.camera_name, now)
-        for synced in self._sync.add(frame.camera_name, frame.stamp_ns, frame):
-            self._mailbox.put(synced, now)
+        self._frames[camera] += 1
+        self._last_frame_s[camera] = now
+        self._first_frame_s.setdefault(camera, now)
+        for synced in self._sync.add(camera, stamp_ns, item):
+            assert self._pipeline is not None
+            if self._last_set_s is not None:     # the input period, for the fit's budget
+                period = now - self._last_set_s
+                self._set_period_s = (period if self._set_period_s is None
+                                      else 0.9 * self._set_period_s + 0.1 * period)
+            self._last_set_s = now
+            self._pipeline.offer(synced, now)
 
     def _on_info(self, camera: str, msg: CameraInfo) -> None:
         self._info_s[camera] = time.monotonic()
@@ -294,38 +314,35 @@ class TrackerNode(Node):
             camera_problems=MappingProxyType(problems),
             assembler_counts={c: dict(a.counts) for c, a in self._assemblers.items()},
             sync=self._sync.stats, processed=period['processed'],
-            skipped=self._mailbox.skipped, latencies_s=period['latencies_s'],
+            skipped=self._pipeline.skipped if self._pipeline else 0, latencies_s=period['latencies_s'],
             processing_s=period['processing_s'], iterations=period['iterations'],
             confidence=period['confidence'], status=status, reinitializations=reinits)
         self._frames.clear()
         self._pub_diag.publish(outputs.diagnostics_msg(
             self.get_name(), health, self.get_clock().now().nanoseconds))
 
-    # --- processing thread: observations -> tracker -> outputs ----------------------------
+    def _on_error(self, err: BaseException) -> None:
+        """A pipeline thread's failure on one set: logged (throttled), the node goes on."""
+        if not rclpy.ok(context=self.context):
+            return
+        if isinstance(err, HandTrackerError):
+            self._log_throttled('observe', 'error', f'dropping a set: {err}')
+            return
+        text = ''.join(traceback.format_exception(err))
+        self._log_throttled('track', 'error', f'tracking a set failed:\n{text}')
 
-    def _work(self) -> None:
-        while not self._stop.is_set():
-            item = self._mailbox.take(timeout_s=0.2)
-            if item is None:
-                continue
-            try:
-                self._process(*item)
-            except Exception:  # noqa: BLE001 - the thread must outlive one bad set
-                if self._stop.is_set() or not rclpy.ok(context=self.context):
-                    return
-                self.get_logger().error(f'tracking a set failed:\n{traceback.format_exc()}',
-                                        throttle_duration_sec=THROTTLE_S)
-
-    def _process(self, synced: SyncedSet, received_s: float) -> None:
-        observations = frame_observations(synced.stamp_ns, synced.items, self._cameras)
+    def _track(self, synced: SyncedSet, observations: FrameObservations,
+               received_s: float) -> None:
         restarts = self._session.restarts
+        budget_s = self.config.budget_ms / 1e3 or self._set_period_s
         try:
-            result = self._session.step(observations)
+            result = self._session.step(observations, deadline_s=time.monotonic() + budget_s
+                                        if budget_s else None)
         except HandTrackerError as err:
             self._log_throttled('initialize', 'warning', f'cannot find the hand yet: {err}')
             return
         processing_s = time.monotonic() - received_s
-        self._publish(result, synced, processing_s)
+        self._publish(result, observations, processing_s)
         latency_s = (self.get_clock().now().nanoseconds - synced.stamp_ns) / 1e9
         restarted = self._session.restarts - restarts
         if restarted:
@@ -344,7 +361,8 @@ class TrackerNode(Node):
             self._status = result.status
             self._reinits += restarted
 
-    def _publish(self, result: TrackResult, synced: SyncedSet, processing_s: float) -> None:
+    def _publish(self, result: TrackResult, observations: FrameObservations,
+                 processing_s: float) -> None:
         frame_id = self.config.world_frame
         if result.status == TrackStatus.TRACKING:
             self._pub_joints.publish(outputs.joint_state_msg(result, frame_id))
@@ -353,30 +371,29 @@ class TrackerNode(Node):
         self._pub_state.publish(outputs.hand_state_msg(result, self._model, frame_id,
                                                        processing_s))
         if self._pub_overlay:
-            self._publish_overlays(result, synced)
+            self._publish_overlays(result, observations)
 
-    def _publish_overlays(self, result: TrackResult, synced: SyncedSet) -> None:
-        views = self._tracker.views(result.posed)
-        for camera, view in zip(self._cameras, views):
-            frame = synced.items[camera.name]
-            base = frame.mask if self.config.overlay_source == 'mask' else frame.edges
-            uv, _ = camera.project(result.posed.keypoints_m)
-            rgb = draw_overlay(np.where(base, np.uint8(255), np.uint8(0)), view.raster.mask, uv)
-            header = outputs.header_at(synced.stamp_ns,
-                                       camera.name + self.config.optical_frame_suffix)
-            self._pub_overlay[camera.name].publish(image_msg(rgb, header))
+    def _publish_overlays(self, result: TrackResult, observations: FrameObservations) -> None:
+        images = observation_overlays(result.posed, self._tracker.views(result.posed),
+                                      observations, self.config.overlay_source)
+        for obs, rgb in zip(observations.cameras, images):
+            header = outputs.header_at(observations.stamp_ns,
+                                       obs.camera.name + self.config.optical_frame_suffix)
+            self._pub_overlay[obs.camera.name].publish(image_msg(rgb, header))
 
     def destroy_node(self) -> None:
-        """Stop the processing thread, then the node."""
-        self._stop.set()
-        if self._worker is not None:
-            self._worker.join(timeout=10.0)
+        """Stop the pipeline threads, then the node."""
+        if self._pipeline is not None:
+            self._pipeline.close()
         super().destroy_node()
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    """Console entry point (`ros2 run hand_tracker_ros tracker`)."""
-    return run_node('tracker', DESCRIPTION, TrackerNodeConfig, TrackerNode, args)
+    """Console entry point (`ros2 run hand_tracker_ros tracker`): the tracker, with
+    ``inputs:=images`` composed with the features and salient_points nodes."""
+    from hand_tracker_ros.nodes.composed import compose  # the other two nodes' imports
+
+    return run_node('tracker', DESCRIPTION, TrackerNodeConfig, compose, args)
 
 
 if __name__ == '__main__':

@@ -50,15 +50,17 @@ def wait_for_nodes(names: Iterable[str], *, timeout_s: float = 30.0,
 
 
 def wait_for_tracking_graph(cameras: Iterable[str], outputs: Iterable[str], *,
-                            timeout_s: float) -> None:
-    """Block until the tracker subscribes to every camera's feature topics
-    (``/<cam>/<part>``) and a recorder to every topic of ``outputs``.
+                            timeout_s: float, mode: str = 'composed') -> None:
+    """Block until the tracker subscribes to its inputs of every camera (``mode``
+    ``composed``: ``/<cam>/image_raw``; ``distributed``: the feature topics
+    ``/<cam>/<part>``) and a recorder to every topic of ``outputs``.
 
-    Frames played before then are lost, and a loaded machine can need more than 8 s to start
-    the tracker. Raises :class:`HandTrackerError` naming the topics still unsubscribed after
+    The tracker subscribes once it is warm (its JIT kernels loaded). Frames played before
+    then are lost, and a loaded machine can need more than 8 s to start it. Raises :class:`HandTrackerError` naming the topics still unsubscribed after
     ``timeout_s``.
     """
-    topics = {f'/{c}/{part}' for c in cameras for part in PARTS} | set(outputs)
+    parts = PARTS if mode == 'distributed' else ('image_raw',)
+    topics = {f'/{c}/{part}' for c in cameras for part in parts} | set(outputs)
     missing = topics - wait_for_subscriptions(topics, timeout_s=timeout_s)
     if missing:
         msg = f'the graph did not subscribe to {sorted(missing)} within {timeout_s:.0f} s'

@@ -19,11 +19,13 @@ Policy
   instants that were never emitted (e.g. a frame lost by one camera).
 - A message not newer than the member its input gave to the last emitted set, or a duplicate
   stamp, is dropped (counted ``late``).
-- A message more than ``jump_back_ns`` older than the newest stamp seen on its own input is a
-  time jump (bag ``--loop``, sim time reset): all queues and the time floor are cleared
-  (counted in ``resets``; the cleared messages count as ``unmatched``) and synchronization
-  restarts from that message. Messages still in flight from before the jump may cause a
-  further reset, losing a set or two around a loop.
+- A message more than ``jump_back_ns`` older than the newest stamp seen on its own input
+  *jumped back*. Time jumps (bag ``--loop``, sim time reset) move every input back, so only
+  when the latest message of every input jumped back are all queues and the time floor
+  cleared (counted in ``resets``; the cleared messages count as ``unmatched``) and
+  synchronization restarts from that message; until then a jumped-back message is dropped as
+  ``late``. One input's stale message (a frame delayed by a scheduling hiccup) therefore
+  never empties the queues; a loop costs the sets of the first messages after it.
 
 Reference stamp of a set: the lower median of its member stamps,
 ``sorted(stamps)[(N - 1) // 2]``. It is always the stamp of a real input message (so outputs
@@ -148,6 +150,7 @@ class ApproximateTimeSync:
         self._counts = {n: Counter({c: 0 for c in _COUNTERS}) for n in self.names}
         self._newest: dict[str, int] = {}
         self._floor: dict[str, int] = {}
+        self._jumped: set[str] = set()     # inputs whose latest message jumped back
         self._last_ref: int | None = None
         self._totals = Counter({'emitted': 0, 'unmatched_sets': 0, 'resets': 0})
 
@@ -186,7 +189,12 @@ class ApproximateTimeSync:
         self._counts[name]['received'] += 1
         newest = self._newest.get(name)
         if newest is not None and stamp_ns < newest - self.config.jump_back_ns:
+            self._jumped.add(name)
+            if len(self._jumped) < len(self.names):
+                self._counts[name]['late'] += 1
+                return []
             self._reset(name, stamp_ns, newest)
+        self._jumped.discard(name)
         self._newest[name] = max(stamp_ns, self._newest.get(name, stamp_ns))
         if stamp_ns <= self._floor.get(name, -1) or stamp_ns in queue:
             self._counts[name]['late'] += 1
@@ -199,13 +207,14 @@ class ApproximateTimeSync:
         return [] if members is None else [self._emit(members)]
 
     def _reset(self, name: str, stamp_ns: int, newest: int) -> None:
-        logger.info('sync input %s jumped back %.3f s: clearing the queues', name,
+        logger.info('every sync input jumped back (%s by %.3f s): clearing the queues', name,
                     (newest - stamp_ns) / 1e9)
         for queue_name, queue in self._queues.items():
             self._counts[queue_name]['unmatched'] += len(queue)
             queue.clear()
         self._newest.clear()
         self._floor.clear()
+        self._jumped.clear()
         self._last_ref = None
         self._totals['resets'] += 1
 

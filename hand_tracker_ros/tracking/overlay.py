@@ -13,7 +13,11 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, UInt8Array
 from hand_tracker_ros.checks import check_shape
+from hand_tracker_ros.model.hand import PosedHand
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
+from hand_tracker_ros.tracking.observations import FrameObservations
+from hand_tracker_ros.tracking.views import ModelView
+from hand_tracker_ros.vision.visualize import paste_roi
 
 # Keypoints are the wrist, then four per finger from the base joint to the tip
 # (skeleton.KEYPOINT_NAMES), so a finger's base hangs from the wrist and the rest chain.
@@ -60,3 +64,19 @@ def draw_overlay(base: UInt8Array, model_mask: BoolArray, keypoints_uv_px: Float
     for point in uv[finite]:
         cv2.circle(out, tuple(point), 2, SKELETON_RGB, -1, cv2.LINE_8)
     return out
+
+
+def observation_overlays(posed: PosedHand, views: Sequence[ModelView],
+                         observations: FrameObservations, source: str = 'mask'
+                         ) -> list[UInt8Array]:
+    """Per camera, (H, W, 3) uint8: :func:`draw_overlay` of the estimate ``posed`` (rendered
+    as ``views``) on the observed ``source`` (``'mask'`` or ``'edges'``), full image size."""
+    images = []
+    for obs, view in zip(observations.cameras, views):
+        feats = obs.features
+        base = feats.mask if source == 'mask' else feats.edges.edges
+        full = paste_roi(np.where(base, np.uint8(255), np.uint8(0)), feats.roi_px,
+                         feats.image_size_px)
+        uv, _ = obs.camera.project(posed.keypoints_m)
+        images.append(draw_overlay(full, view.raster.mask, uv))
+    return images

@@ -93,6 +93,7 @@ class TrackingSession:
         self._trusted: FloatArray | None = None
         self._stamps: list[int] = []    # stamps (ns) of the tracker's history, when known
         self.restarts = 0     # starts (initial pose or search) after losses, in all
+        self.status: TrackStatus | None = None     # of the last frame; None before one
 
     @property
     def initialized(self) -> bool:
@@ -110,20 +111,33 @@ class TrackingSession:
         self._lost = 0
         self._trusted = None if theta is None else np.asarray(theta, np.float64).copy()
         self._stamps = []
+        self.status = None
 
-    def step(self, observations: FrameObservations) -> TrackResult:
+    def step(self, observations: FrameObservations, *,
+             deadline_s: float | None = None) -> TrackResult:
         """Track one frame set (module docstring). Raises ``HandTrackerError`` when no hand
-        can be found to start from (e.g. fewer than two cameras see foreground)."""
+        can be found to start from (e.g. fewer than two cameras see foreground).
+
+        ``deadline_s`` (``time.monotonic``) caps the frame's main fit (the rounds that
+        :meth:`HandTracker.fit` may start); once it has passed, the frame is refitted from
+        the recovery hypotheses only below ``failure.lost_below`` (not already below
+        ``failure.recover_below``). Recovery and search themselves are not capped.
+        """
         start = time.perf_counter()
         timings: dict[str, float] = {}
         if not self.tracker.initialized:
             self._start(observations, timings)
         start_theta = self._prediction(observations.stamp_ns)
-        judged = self._judge('previous', self._fit(observations, start_theta, timings),
-                             observations)
+        judged = self._judge('previous', self._fit(observations, start_theta, timings,
+                                                   deadline_s), observations)
         iterations = judged.fit.iterations
         failure = self.config.failure
-        if self.config.recovery and judged.confidence < failure.recover_below:
+        # Over its budget a live frame is refitted only when it would be LOST: a doubtful
+        # frame's recovery (several fits) would skip the next sets, and the larger step to
+        # them would make those doubtful too.
+        over_budget = deadline_s is not None and time.monotonic() > deadline_s
+        recover_below = failure.lost_below if over_budget else failure.recover_below
+        if self.config.recovery and judged.confidence < recover_below:
             t0 = time.perf_counter()
             judged, spent = self._recover(judged, observations, timings)
             iterations += spent
@@ -143,6 +157,7 @@ class TrackingSession:
         status = self._settle(judged, observations.stamp_ns,
                               continues=judged.name == 'previous' and not searched_now)
         timings['total'] = time.perf_counter() - start
+        self.status = status
         fit = judged.fit
         return TrackResult(observations.stamp_ns, status, fit.theta, fit.posed, iterations,
                            fit.energy_costs, judged.confidence, judged.evidence, timings,
@@ -176,8 +191,8 @@ class TrackingSession:
         return constant_velocity(history, self.tracker.model, (stamp_ns - t1) / (t1 - t0))
 
     def _fit(self, observations: FrameObservations, start: FloatArray | None,
-             timings: dict[str, float]) -> Fit:
-        fit = self.tracker.fit(observations, start)
+             timings: dict[str, float], deadline_s: float | None = None) -> Fit:
+        fit = self.tracker.fit(observations, start, deadline_s=deadline_s)
         for key, value in fit.timings_s.items():
             timings[key] = timings.get(key, 0.0) + value
         return fit

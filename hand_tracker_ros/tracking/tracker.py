@@ -170,11 +170,16 @@ class HandTracker:
                         max_damping=lm.max_damping)
 
     def fit(self, observations: FrameObservations, start: FloatArray | None = None, *,
-            plan: Sequence[Round] | None = None, separate: bool = True) -> Fit:
+            plan: Sequence[Round] | None = None, separate: bool = True,
+            deadline_s: float | None = None) -> Fit:
         """Fit the model to one frame set from ``start`` (default: the previous estimate).
 
         ``plan`` replaces the configured rounds (e.g. one short round to rank hypotheses);
-        ``separate=False`` skips the separation rounds. The tracker's history is not changed:
+        ``separate=False`` skips the separation rounds. Once a round with every parameter
+        free has run, a round that would end after ``deadline_s`` (``time.monotonic``;
+        judged by the previous round's duration) is not started: a live tracker keeps to
+        its frame budget with the rounds done so far (a coarse round alone leaves the distal
+        joints where they were, which drifts within a few frames). The tracker's history is not changed:
         :meth:`accept` makes a fit the previous frame of the next one. Requires a history
         (``reset``), which the flow and temporal terms read.
         """
@@ -194,12 +199,18 @@ class HandTracker:
         # A round that starts at the previous estimate reuses its rendered views.
         start_views = self._previous.views if start is None else None
         collisions: CollisionPairs | None = None     # the frame's constraints so far
-        for rnd in (self._rounds if plan is None else plan) if self.config.solver == 'lm' else ():
+        plan = self._rounds if plan is None else plan
+        round_s, full_done = 0.0, False
+        for rnd in plan if self.config.solver == 'lm' else ():
+            if full_done and deadline_s is not None and time.monotonic() + round_s > deadline_s:
+                break
+            round_start = time.monotonic()
             theta, n_iter, problem, correspondences = self._solve_round(
                 theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions)
             collisions = dict(zip(problem.names, correspondences)).get('collision')
             start_views = None
             iterations += n_iter
+            round_s, full_done = time.monotonic() - round_start, full_done or rnd.free.all()
         if self.config.solver == 'lm' and separate:
             t0 = time.perf_counter()
             separated = self._separator.separate(theta, collisions)

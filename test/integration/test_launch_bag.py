@@ -21,20 +21,19 @@ def test_launch_plays_tracks_records_and_stops_at_the_end_of_the_bag(tmp_path: P
     bag = write_sequence(sequence, tmp_path / 'synthetic')
     params = tmp_path / 'params.yaml'
     params.write_text(yaml.safe_dump({
-        'player': {'ros__parameters': {'playback': {'rate': 0.03}}},
         'tracker': {'ros__parameters': {
             'initialization': 'initial_pose',
             'initial_pose': [float(v) for v in sequence.thetas[0]]}}}))
     record = tmp_path / 'tracked'
-    result = subprocess.run(['hand-tracker', 'launch', '--bag', str(bag), '--params',
-                             str(params), '--record', str(record)],
+    result = subprocess.run(['hand-tracker', 'launch', '--bag', str(bag), '--rate', '0.02',
+                             '--params', str(params), '--record', str(record)],
                             capture_output=True, text=True, timeout=240)
     assert result.returncode == 0, result.stdout[-3000:]
     assert 'player exited; stopping the graph' in result.stdout
     with BagReader(record) as reader:
         counts = {t: s.count for t, s in reader.topics.items()}
     # The player starts once the graph is connected and the graph drains after the bag, so
-    # every set is tracked (the bag plays at 0.9 sets/s: a set needs ~0.1 s, but one the
+    # every set is tracked (the bag plays at 0.6 sets/s: a set needs ~0.1 s, but one the
     # session doubts is refitted from its recovery hypotheses, ~1 s on a loaded machine).
     assert counts.get('/hand_state') == 12, counts
     assert counts.get('/joint_states') == 12, counts

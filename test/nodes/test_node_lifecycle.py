@@ -9,33 +9,42 @@ import pytest
 
 from hand_tracker_ros.ament import executable
 from hand_tracker_ros.cli.launch import NODES, graph_specs
-from hand_tracker_ros.launcher import ProcessGroup
+from hand_tracker_ros.launcher import GRAPH_MODES, ProcessGroup
 
 pytestmark = pytest.mark.ros
 
 RIG = Path(__file__).resolve().parents[2] / 'config' / 'rig_example.yaml'
 
 
-def test_bag_playback_waits_for_both_image_consumers_of_every_rig_camera() -> None:
-    player = {s.name: s for s in graph_specs(rig=str(RIG), bag='demo_bag')}['player'].ros_args
+@pytest.mark.parametrize(('mode', 'readers'), [('composed', 1), ('distributed', 2)])
+def test_bag_playback_waits_for_every_image_reader_of_every_rig_camera(mode: str,
+                                                                       readers: int) -> None:
+    specs = {s.name: s for s in graph_specs(rig=str(RIG), bag='demo_bag', mode=mode)}
+    player = specs['player'].ros_args
     images = ','.join(f'/cam{i}/image_raw' for i in range(4))
     assert f'wait_topics:=[{images}]' in player
-    assert 'wait_subscriber_count:=2' in player
+    assert f'wait_subscriber_count:={readers}' in player
+    assert ('features' in specs) == (mode == 'distributed')
+    inputs = 'images' if mode == 'composed' else 'features'
+    assert f'inputs:={inputs}' in specs['tracker'].ros_args
     without_rig = {s.name: s for s in graph_specs(bag='demo_bag')}['player'].ros_args
     assert not any(arg.startswith('wait_topics') for arg in without_rig)
 
 
-def test_graph_comes_up_and_stops_cleanly_on_sigint() -> None:
+@pytest.mark.parametrize('mode', GRAPH_MODES)
+def test_graph_comes_up_and_stops_cleanly_on_sigint(mode: str) -> None:
+    """Both modes show the same five nodes (composed: three of them in one process)."""
     from hand_tracker_ros.ros_io.graph import wait_for_nodes
 
-    group = ProcessGroup(graph_specs(), output=open('/dev/null', 'w'))
+    specs = graph_specs(mode=mode)
+    group = ProcessGroup(specs, output=open('/dev/null', 'w'))
     group.start()
     try:
         seen = wait_for_nodes(NODES, timeout_s=60.0)
     finally:
         codes = group.stop()
     assert seen == set(NODES)
-    assert codes == dict.fromkeys(NODES, 0)
+    assert codes == dict.fromkeys((s.name for s in specs), 0)
 
 
 def test_node_exits_cleanly_on_sigterm() -> None:

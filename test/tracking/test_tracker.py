@@ -138,3 +138,21 @@ def test_separation_rounds_separate_fingers_the_schedule_left_intersecting(hand_
         left.append(n_pairs(result.posed.vertices_m))
     assert left[0] > 50          # one round of three LM steps leaves them intersecting
     assert left[1] == 0
+
+
+def test_a_passed_deadline_stops_after_the_first_full_round(hand_model, grasp) -> None:
+    import time
+
+    sequence, frames = grasp
+    pipeline = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())
+    pipeline.session.reset(frames[0].theta)
+    observations, _ = pipeline.observe(FrameSet(frames[1].stamp_ns, frames[1].images))
+    tracker, schedule = pipeline.tracker, pipeline.config.tracker.schedule
+    full = tracker.fit(observations, separate=False)
+    capped = tracker.fit(observations, separate=False, deadline_s=time.monotonic())
+    later = tracker.fit(observations, separate=False, deadline_s=time.monotonic() + 60.0)
+    pipeline.close()
+    first_full = (schedule.coarse_rounds + 1) * schedule.iterations
+    assert capped.iterations <= first_full < full.iterations
+    assert later.iterations == full.iterations
+    np.testing.assert_allclose(later.theta, full.theta)

@@ -1,0 +1,69 @@
+"""The composed graph: tracker, features and salient_points in one process.
+
+``ros2 run hand_tracker_ros tracker`` with ``inputs:=images`` (the default) builds the three
+nodes here, spun by one executor, like an rclcpp component container: each keeps its name,
+parameters and output topics, but the image sets travel in memory. The tracker synchronizes
+the raw images; for each set it tracks, :class:`InProcessObserver` decodes the images once
+(:mod:`hand_tracker_ros.vision.image_codec`, the one decoder), asks the features node for
+edges, mask and flow and the salient_points node for fingertips, and builds the tracker's
+observations, without serializing anything. Features and detections are computed only for
+the sets that are tracked, so optical flow always spans the tracker's own step.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from rclpy.node import Node
+
+from hand_tracker_ros.nodes.features_node import FeaturesNode
+from hand_tracker_ros.nodes.salient_points_node import SalientPointsNode
+from hand_tracker_ros.nodes.tracker_node import TrackerNode
+from hand_tracker_ros.sync.approximate import SyncedSet
+from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
+                                                    SalientDetections)
+from hand_tracker_ros.tracking.result import TrackStatus
+from hand_tracker_ros.vision.image_codec import image_from_msg
+
+
+class InProcessObserver:
+    """A synchronized set of image messages -> the tracker's observations, in memory.
+
+    Fingertips are detected in every ``detect_every``-th set while the session tracks, and
+    in every set while it does not (the start and the recovery need them most).
+    """
+
+    def __init__(self, tracker: TrackerNode, features: FeaturesNode,
+                 salient: SalientPointsNode) -> None:
+        self._tracker, self._features, self._salient = tracker, features, salient
+        self._every = tracker.config.detect_every
+        self._count = 0
+
+    def __call__(self, synced: SyncedSet) -> FrameObservations:
+        cameras = self._tracker.cameras
+        msgs = [synced.items[c.name] for c in cameras]
+        images = [image_from_msg(m, source=c.name, expected_size_px=(c.width, c.height))
+                  for c, m in zip(cameras, msgs)]
+        headers = [m.header for m in msgs]
+        features = self._features.process_set(images, headers)
+        tracking = self._tracker.session.status == TrackStatus.TRACKING
+        self._count = self._count + 1 if tracking else 0
+        if not tracking or self._count % self._every == 0:
+            tips = self._salient.detect_set(images, headers)
+        else:
+            tips = [SalientDetections.empty()] * len(cameras)
+        return FrameObservations(synced.stamp_ns, tuple(
+            CameraObservation(cam, feat, tip) for cam, feat, tip in zip(cameras, features, tips)))
+
+
+def compose() -> Sequence[Node]:
+    """The tracker node and, with ``inputs:=images``, its features and salient_points nodes
+    (same cameras), linked in memory; the tracker warms up, then subscribes."""
+    tracker = TrackerNode()
+    if tracker.config.inputs != 'images':
+        return [tracker]
+    cameras = tracker.config.cameras
+    features = FeaturesNode(in_process=True, cameras=cameras)
+    salient = SalientPointsNode(in_process=True, cameras=cameras)
+    if tracker.configured:
+        tracker.start(InProcessObserver(tracker, features, salient))
+    return [tracker, features, salient]

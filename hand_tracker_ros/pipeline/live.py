@@ -1,0 +1,128 @@
+"""The live tracking loop: the newest set is observed on one thread and tracked on another.
+
+A node's ROS callbacks only :meth:`LivePipeline.offer` complete sets (cheap). Two threads do
+the work:
+
+- the *observer* turns the newest offered set into the tracker's observations (features,
+  detections, edge lookup tables); a set offered while an older one is still untaken
+  replaces it and counts as ``skipped``, so the graph always works on the newest set;
+- the *tracker* fits each observed set in turn and publishes (``track``).
+
+Every observed set is tracked (optical flow and the warm start are relative to the previous
+tracked set, so none may be skipped after observing). The two overlap: as soon as the tracker
+takes an observed set, the observer starts on the newest offered one, so the next fit never
+waits for its observations. The throughput is one set per fit; the latency of a set is its
+wait for the observer, its observation, its wait for the fit in progress, and its own fit.
+
+Why plain threads and not a MultiThreadedExecutor: the one-slot mailboxes state the "newest
+set wins" policy directly, and the executor thread stays free for callbacks and timers
+whatever the tracker costs. Both stages spend most of their time in OpenCV, ONNX Runtime,
+NumPy and numba code that runs beside the other thread on a second core.
+"""
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Generic, TypeVar
+
+Item = TypeVar('Item')
+Observed = TypeVar('Observed')
+
+_POLL_S = 0.2         # longest wait of a thread before it checks for a stop
+
+
+class LatestSet(Generic[Item]):
+    """A one-slot mailbox (newest wins); counts the items replaced before they were taken."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._item: tuple[Item, float] | None = None
+        self.skipped = 0
+
+    def put(self, item: Item, received_s: float) -> None:
+        """Offer ``item`` (received at monotonic ``received_s``); replaces an untaken one."""
+        with self._cond:
+            self.skipped += self._item is not None
+            self._item = (item, received_s)
+            self._cond.notify_all()
+
+    def take(self, timeout_s: float) -> tuple[Item, float] | None:
+        """The newest item with its receipt time, or None after ``timeout_s``."""
+        with self._cond:
+            if self._item is None:
+                self._cond.wait(timeout_s)
+            item, self._item = self._item, None
+            self._cond.notify_all()
+            return item
+
+    def wait_empty(self, timeout_s: float) -> bool:
+        """Block until the slot is empty (or ``timeout_s``); True when it is."""
+        with self._cond:
+            return self._cond.wait_for(lambda: self._item is None, timeout_s)
+
+
+class LivePipeline(Generic[Item, Observed]):
+    """Observe the newest set, track every observed one (module docstring).
+
+    Parameters
+    ----------
+    observe : callable
+        ``observe(item) -> observed``; raising drops the set (``on_error`` is told).
+    track : callable
+        ``track(item, observed, received_s)``: fit and publish one set.
+    on_error : callable
+        Called with each exception either stage raised; the threads keep running.
+    """
+
+    def __init__(self, observe: Callable[[Item], Observed],
+                 track: Callable[[Item, Observed, float], None],
+                 on_error: Callable[[BaseException], None]) -> None:
+        self._observe, self._track, self._on_error = observe, track, on_error
+        self._inbox: LatestSet[Item] = LatestSet()
+        self._observed: LatestSet[tuple[Item, Observed, float]] = LatestSet()
+        self._stop = threading.Event()
+        self._threads = [threading.Thread(target=self._observer, name='observer', daemon=True),
+                         threading.Thread(target=self._tracker, name='tracker', daemon=True)]
+        for thread in self._threads:
+            thread.start()
+
+    @property
+    def skipped(self) -> int:
+        """Offered sets replaced by a newer one before they were observed."""
+        return self._inbox.skipped
+
+    def offer(self, item: Item, received_s: float) -> None:
+        """A new complete set, received at monotonic ``received_s`` (any thread)."""
+        self._inbox.put(item, received_s)
+
+    def close(self, timeout_s: float = 10.0) -> None:
+        """Stop both threads (the set in progress is finished)."""
+        self._stop.set()
+        for thread in self._threads:
+            thread.join(timeout_s)
+
+    def _observer(self) -> None:
+        while not self._stop.is_set():
+            if not self._observed.wait_empty(_POLL_S):
+                continue
+            taken = self._inbox.take(_POLL_S)
+            if taken is None:
+                continue
+            item, received_s = taken
+            try:
+                observed = self._observe(item)
+            except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set
+                self._on_error(err)
+                continue
+            self._observed.put((item, observed, received_s), received_s)
+
+    def _tracker(self) -> None:
+        while not self._stop.is_set():
+            taken = self._observed.take(_POLL_S)
+            if taken is None:
+                continue
+            (item, observed, received_s), _ = taken
+            try:
+                self._track(item, observed, received_s)
+            except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set
+                self._on_error(err)

@@ -1,0 +1,53 @@
+"""The live loop: newest set wins before observing, every observed set is tracked in order,
+and a failing set does not stop either thread."""
+from __future__ import annotations
+
+import threading
+import time
+
+from hand_tracker_ros.pipeline.live import LatestSet, LivePipeline
+
+
+def test_newest_set_wins_and_skipped_sets_are_counted() -> None:
+    mailbox: LatestSet[str] = LatestSet()
+    assert mailbox.take(timeout_s=0.01) is None
+    for k in range(3):
+        mailbox.put(f'set{k}', float(k))
+    assert mailbox.take(timeout_s=0.01) == ('set2', 2.0) and mailbox.skipped == 2
+    taken = []
+    worker = threading.Thread(target=lambda: taken.append(mailbox.take(timeout_s=10.0)))
+    worker.start()
+    mailbox.put('set3', 3.0)         # wakes the waiting taker at once
+    worker.join(timeout=5.0)
+    assert taken == [('set3', 3.0)] and mailbox.skipped == 2
+    assert mailbox.wait_empty(0.01)
+
+
+def test_slow_tracker_skips_sets_but_tracks_every_observed_one_in_order() -> None:
+    observed, tracked, errors = [], [], []
+
+    def observe(k: int) -> int:
+        if k == 3:
+            raise ValueError('bad set 3')
+        observed.append(k)
+        return 10 * k
+
+    def track(k: int, obs: int, received_s: float) -> None:
+        assert obs == 10 * k and received_s <= time.monotonic()
+        time.sleep(0.05)              # slower than the sets arrive
+        tracked.append(k)
+
+    live = LivePipeline(observe, track, errors.append)
+    try:
+        for k in range(40):
+            live.offer(k, time.monotonic())
+            time.sleep(0.01)
+        deadline = time.monotonic() + 5.0
+        while (not tracked or tracked[-1] != 39) and time.monotonic() < deadline:
+            time.sleep(0.01)
+    finally:
+        live.close()
+    assert tracked == observed                    # nothing observed is dropped
+    assert tracked == sorted(tracked) and tracked[-1] == 39
+    assert live.skipped > 0 and len(tracked) < 40
+    assert all(isinstance(e, ValueError) for e in errors)
