@@ -4,7 +4,8 @@ The tracking nodes run composed (``--mode composed``, the default: one ``tracker
 also hosts ``features`` and ``salient_points``, data passed in memory) or distributed
 (``--mode distributed``: three processes over DDS); README "Composed or distributed".
 Without ``--bag`` the nodes run until Ctrl-C/SIGTERM (the player idles, the recorder
-records nothing): live cameras publish ``<cam>/image_raw`` and ``<cam>/camera_info``.
+records nothing): live cameras publish ``<cam>/image_raw`` and ``<cam>/camera_info``, and
+``--rig`` is required (the tracker cannot run without the cameras' calibration).
 
 With ``--bag`` (every node on sim time, the rig beside the bag unless ``--rig``):
 
@@ -28,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from hand_tracker_ros.ament import share_file
+from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.launcher import (GRAPH_MODES, PROCESS_NODES, TRACKING_PROCESSES,
                                        ProcessGroup, ProcessSpec,
@@ -40,7 +42,7 @@ RECORDED = ('/joint_states', '/hand_state', '/markers', '/diagnostics')
 
 def graph_specs(params_file: str | None = None, *, rig: str | None = None,
                 bag: str | None = None, record: str | None = None, mode: str = 'composed',
-                rate: float | None = None) -> list[ProcessSpec]:
+                rate: float | None = None, loop: bool = False) -> list[ProcessSpec]:
     """One process per executable of ``mode`` plus player and recorder: its
     ``config/<node>.yaml``, the user's file, then overrides."""
     processes = (*TRACKING_PROCESSES[mode], 'player', 'recorder')
@@ -57,6 +59,8 @@ def graph_specs(params_file: str | None = None, *, rig: str | None = None,
         extra['player'] += ['-p', f'bag:={bag}']
         if rate is not None:
             extra['player'] += ['-p', f'playback.rate:={rate}']
+        if loop:
+            extra['player'] += ['-p', 'playback.loop:=true']
         if names:
             extra['player'] += player_waits_for_image_consumers(names, mode)
         extra['recorder'] += ['-p', f'output:={record}', '-p', f'topics:={ros_list(RECORDED)}']
@@ -75,7 +79,8 @@ def add_parser(sub: Any) -> None:
     parser = sub.add_parser('launch', help='run the node graph (until Ctrl-C or the bag ends)',
                             description=__doc__)
     parser.add_argument('--bag', help='bag to play through the graph')
-    parser.add_argument('--rig', help='rig YAML (default with --bag: rig.yaml beside the bag)')
+    parser.add_argument('--rig', help='rig YAML (required without --bag; default with --bag: '
+                                      'rig.yaml beside the bag)')
     parser.add_argument('--params', help='ros__parameters YAML passed to every node')
     parser.add_argument('--record', help='output bag of the tracker (default <bag>_tracked)')
     parser.add_argument('--mode', choices=GRAPH_MODES, default='composed',
@@ -84,6 +89,8 @@ def add_parser(sub: Any) -> None:
     parser.add_argument('--rate', type=float,
                         help="with --bag: playback rate (default: the player's playback.rate, "
                              '1.0 = real time)')
+    parser.add_argument('--loop', action='store_true',
+                        help='with --bag: play it again and again (until Ctrl-C)')
     parser.add_argument('--startup-timeout', type=float, default=120.0, metavar='S',
                         help='with --bag: longest wait for the graph to connect (default 120)')
     parser.add_argument('--drain', type=float, default=5.0, metavar='S',
@@ -95,9 +102,13 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Start every node; on Ctrl-C/SIGTERM, or when the bag has played and drained, stop them."""
     rig = args.rig or (str(Path(args.bag).parent / 'rig.yaml') if args.bag else None)
+    if rig is None:
+        msg = ('the tracker needs the camera rig: --rig RIG (intrinsics + extrinsics, schema '
+               'config/rig_example.yaml), or --bag BAG with rig.yaml beside it')
+        raise HandTrackerError(msg)
     record = args.record or (f'{Path(args.bag).resolve()}_tracked' if args.bag else None)
     specs = graph_specs(args.params, rig=rig, bag=args.bag, record=record, mode=args.mode,
-                        rate=args.rate)
+                        rate=args.rate, loop=args.loop)
     # With a bag the player starts last, once the graph is connected (module docstring).
     graph = ProcessGroup([s for s in specs if not (args.bag and s.name == 'player')])
     playback = ProcessGroup([s for s in specs if args.bag and s.name == 'player'])

@@ -64,6 +64,5 @@ def compose() -> Sequence[Node]:
     cameras = tracker.config.cameras
     features = FeaturesNode(in_process=True, cameras=cameras)
     salient = SalientPointsNode(in_process=True, cameras=cameras)
-    if tracker.configured:
-        tracker.start(InProcessObserver(tracker, features, salient))
+    tracker.start(InProcessObserver(tracker, features, salient))
     return [tracker, features, salient]

@@ -33,7 +33,7 @@ again after ``session.failure.reinit_after`` consecutive LOST frames; ``initial_
 at, and resets to, that pose. The camera intrinsics and extrinsics come from
 ``rig_file``; a camera_info whose size contradicts the rig drops that camera's frames with
 a throttled error; a missing camera_info is only reported (the rig is used). Without a
-``rig_file`` the node stays idle and says so.
+``rig_file`` the node refuses to start and says so.
 """
 from __future__ import annotations
 
@@ -104,12 +104,12 @@ class TrackerNode(Node):
         bridge_core_logging(self)
         self.config = declare_config(self, TrackerNodeConfig)
         self._pipeline: LivePipeline[SyncedSet, FrameObservations] | None = None
-        self._session: TrackingSession | None = None
-        if not self.config.rig_file:
-            self.get_logger().error('no `rig_file` parameter: the tracker needs the camera '
-                                    'rig (intrinsics + extrinsics); staying idle')
-            return
         try:
+            if not self.config.rig_file:
+                msg = ('no `rig_file` parameter: the tracker needs the camera rig (intrinsics '
+                       '+ extrinsics), e.g. -p rig_file:=rig.yaml (schema: '
+                       'config/rig_example.yaml)')
+                raise ConfigError(msg)
             rig = _load_rig(self.config)
         except HandTrackerError as err:
             self.get_logger().fatal(str(err))
@@ -132,14 +132,8 @@ class TrackerNode(Node):
                                                          self.cameras))
 
     @property
-    def configured(self) -> bool:
-        """True when the node has a rig and can track (else it idles)."""
-        return self._session is not None
-
-    @property
     def session(self) -> TrackingSession:
         """The tracking session (its status steers the in-process detection)."""
-        assert self._session is not None, 'the tracker has no rig'
         return self._session
 
     def start(self, observe: Callable[[SyncedSet], FrameObservations]) -> None:

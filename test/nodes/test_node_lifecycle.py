@@ -36,7 +36,7 @@ def test_graph_comes_up_and_stops_cleanly_on_sigint(mode: str) -> None:
     """Both modes show the same five nodes (composed: three of them in one process)."""
     from hand_tracker_ros.ros_io.graph import wait_for_nodes
 
-    specs = graph_specs(mode=mode)
+    specs = graph_specs(rig=str(RIG), mode=mode)
     group = ProcessGroup(specs, output=open('/dev/null', 'w'))
     group.start()
     try:
@@ -50,7 +50,8 @@ def test_graph_comes_up_and_stops_cleanly_on_sigint(mode: str) -> None:
 def test_node_exits_cleanly_on_sigterm() -> None:
     from hand_tracker_ros.ros_io.graph import wait_for_nodes
 
-    proc = subprocess.Popen([str(executable('tracker')), '--ros-args', '-r', '__node:=tracker'],
+    proc = subprocess.Popen([str(executable('tracker')), '--ros-args', '-p',
+                             f'rig_file:={RIG}'],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         assert wait_for_nodes(['tracker'], timeout_s=60.0) == {'tracker'}
@@ -59,6 +60,20 @@ def test_node_exits_cleanly_on_sigterm() -> None:
         out, _ = proc.communicate(timeout=30)
     assert proc.returncode == 0, out
     assert 'Traceback' not in out
+
+
+def test_tracker_without_a_rig_refuses_to_start_and_says_why() -> None:
+    proc = subprocess.run([str(executable('tracker'))], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 2
+    assert 'no `rig_file` parameter' in proc.stdout + proc.stderr
+    assert 'Traceback' not in proc.stdout + proc.stderr
+
+
+def test_launch_without_a_rig_refuses_to_start() -> None:
+    proc = subprocess.run(['hand-tracker', 'launch'], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 2 and '--rig RIG' in proc.stderr
 
 
 def test_bad_parameter_is_a_clear_startup_error() -> None:
