@@ -29,7 +29,6 @@ from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
 from hand_tracker_ros.config import describe, flatten
-from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.ros_env import apply_ros_defaults
 
 _SPIN_PERIOD_S = 0.5
@@ -81,13 +80,6 @@ def run_node(name: str, description: str, config_cls: type,
         _spin(nodes)
     except ExternalShutdownException:
         pass
-    except HandTrackerError as err:
-        # A configuration the node cannot run with (a missing or unreadable rig, ...): one
-        # clear line and a non-zero exit, no traceback.
-        if not rclpy.ok():
-            return 0
-        print(f'{name}: error: {err}', file=sys.stderr)
-        return 2
     except Exception:
         # A signal that arrives while the node or its executor is still being built shuts
         # the context down under them (rclpy then fails to create a guard condition): that

@@ -22,14 +22,21 @@ from hand_tracker_ros.sync.approximate import SyncedSet
 from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
                                                     SalientDetections)
 from hand_tracker_ros.tracking.result import TrackStatus
+from hand_tracker_ros.tracking.roi import hand_rois
 from hand_tracker_ros.vision.image_codec import image_from_msg
 
 
 class InProcessObserver:
     """A synchronized set of image messages -> the tracker's observations, in memory.
 
-    Fingertips are detected in every ``detect_every``-th set while the session tracks, and
-    in every set while it does not (the start and the recovery need them most).
+    While the session tracks, features are computed in a region of interest around the last
+    estimate (``use_roi``, :mod:`hand_tracker_ros.tracking.roi`; the set is observed while
+    the previous one is fitted, so the margin covers two frames of motion) and fingertips
+    are detected in every ``detect_every``-th set. While it does not, both cover every
+    image in every set (the start and the recovery need them most). Measured without ROS
+    on random motion played at 30 Hz: at 4 x 640x480 the sets tracked went from 11 to 20 of
+    89 with the regions of interest and to 33 with detection in every second set; at
+    4 x 320x240 neither changed the sets tracked or the error.
     """
 
     def __init__(self, tracker: TrackerNode, features: FeaturesNode,
@@ -44,8 +51,13 @@ class InProcessObserver:
         images = [image_from_msg(m, source=c.name, expected_size_px=(c.width, c.height))
                   for c, m in zip(cameras, msgs)]
         headers = [m.header for m in msgs]
-        features = self._features.process_set(images, headers)
-        tracking = self._tracker.session.status == TrackStatus.TRACKING
+        tracker = self._tracker.session.tracker
+        tracking = (self._tracker.session.status == TrackStatus.TRACKING
+                    and tracker.history.shape[0] > 0)
+        config = self._tracker.config
+        rois = (hand_rois(tracker.model.pose(tracker.history[-1], jacobian=False), cameras,
+                          config.roi) if tracking and config.use_roi else None)
+        features = self._features.process_set(images, headers, rois)
         self._count = self._count + 1 if tracking else 0
         if not tracking or self._count % self._every == 0:
             tips = self._salient.detect_set(images, headers)

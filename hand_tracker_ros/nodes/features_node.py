@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import CompressedImage, Image
@@ -31,7 +32,7 @@ from hand_tracker_ros.ros_io.images import ImageInputs, image_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.features import CameraFeatures, MultiCameraFeatures
-from hand_tracker_ros.vision.visualize import edge_image, flow_image, mask_image
+from hand_tracker_ros.vision.visualize import edge_image, flow_image, mask_image, paste_roi
 
 DESCRIPTION = 'Per-camera image features: edges, foreground mask and optical flow.'
 OUTPUTS = ('edges', 'edge_orientation', 'mask', 'flow')
@@ -60,11 +61,14 @@ class FeaturesNode(Node):
         where = 'in the tracker process' if in_process else 'from the image topics'
         self.get_logger().info(f'features for cameras {list(self.config.cameras)} {where}')
 
-    def process_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header]
+    def process_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header],
+                    rois_px: Sequence[tuple[int, int, int, int] | None] | None = None
                     ) -> tuple[CameraFeatures, ...]:
-        """Features of one synchronized set, cameras in ``cameras`` order (in process)."""
+        """Features of one synchronized set, cameras in ``cameras`` order (in process), each
+        in its region of interest ``(u0, v0, u1, v1)`` (None: the whole image); published
+        at full size."""
         stamps = [h.stamp.sec * 10**9 + h.stamp.nanosec for h in headers]
-        features = self._features.process(images_rgb, stamps)
+        features = self._features.process(images_rgb, stamps, rois_px=rois_px)
         for camera, feat, header in zip(self.config.cameras, features, headers):
             self._publish(camera, feat, header)
         return features
@@ -86,11 +90,14 @@ class FeaturesNode(Node):
                   'mask': lambda: mask_image(features.mask),
                   'flow': (lambda: flow_image(features.flow)) if features.flow is not None
                   else None}
+        fill = {'flow': np.nan}     # no flow outside a region of interest
         for output, pub in self._pubs[camera].items():
             pixels = images[output]
             if pixels is None or (self._in_process and pub.get_subscription_count() == 0):
                 continue
-            pub.publish(image_msg(pixels(), header))
+            full = paste_roi(pixels(), features.roi_px, features.image_size_px,
+                             fill=fill.get(output, 0))
+            pub.publish(image_msg(full, header))
 
     def destroy_node(self) -> None:
         """Stop the feature threads, then the node."""

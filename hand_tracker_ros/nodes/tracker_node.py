@@ -37,6 +37,7 @@ a throttled error; a missing camera_info is only reported (the rig is used). Wit
 """
 from __future__ import annotations
 
+import sys
 import threading
 import time
 import traceback
@@ -387,7 +388,11 @@ def main(args: Sequence[str] | None = None) -> int:
     ``inputs:=images`` composed with the features and salient_points nodes."""
     from hand_tracker_ros.nodes.composed import compose  # the other two nodes' imports
 
-    return run_node('tracker', DESCRIPTION, TrackerNodeConfig, compose, args)
+    try:
+        return run_node('tracker', DESCRIPTION, TrackerNodeConfig, compose, args)
+    except HandTrackerError as err:     # a rig or parameters it cannot run with
+        print(f'tracker: error: {err}', file=sys.stderr)
+        return 2
 
 
 if __name__ == '__main__':

@@ -37,11 +37,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros._typing import BoolArray, FloatArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.tracking.observations import FrameObservations
 from hand_tracker_ros.tracking.views import ModelView
 from hand_tracker_ros.vision.edges import nearest_edges
+from hand_tracker_ros.vision.features import CameraFeatures
+from hand_tracker_ros.vision.visualize import paste_roi
 
 SIGNALS = ('coverage', 'edge_coverage', 'tip_agreement')
 
@@ -94,7 +96,7 @@ def measure(views: Sequence[ModelView], observations: FrameObservations,
     """
     coverage, edges, tip_d = [], [], []
     for view, obs in zip(views, observations.cameras):
-        model, data = view.raster.mask, obs.features.mask
+        model, data = view.raster.mask, _full_mask(obs.features)
         model_px = np.count_nonzero(model)
         if model_px:
             coverage.append(np.count_nonzero(model & data) / model_px)
@@ -112,13 +114,22 @@ def measure(views: Sequence[ModelView], observations: FrameObservations,
     }
 
 
+def _full_mask(features: CameraFeatures) -> BoolArray:
+    """The observed mask at full image size (features computed in a region of interest
+    cover only that region; the rest is background)."""
+    if features.mask.shape == features.image_size_px[::-1]:
+        return features.mask
+    return paste_roi(features.mask, features.roi_px, features.image_size_px).astype(bool)
+
+
 def silhouette_iou(views: Sequence[ModelView], observations: FrameObservations) -> float:
     """Mean IoU of the model's and the observed masks over the cameras (0 if none overlap)."""
     ious = []
     for view, obs in zip(views, observations.cameras):
-        union = np.count_nonzero(view.raster.mask | obs.features.mask)
+        data = _full_mask(obs.features)
+        union = np.count_nonzero(view.raster.mask | data)
         if union:
-            ious.append(np.count_nonzero(view.raster.mask & obs.features.mask) / union)
+            ious.append(np.count_nonzero(view.raster.mask & data) / union)
     return float(np.mean(ious)) if ious else 0.0
 
 
