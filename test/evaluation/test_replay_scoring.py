@@ -9,7 +9,7 @@ import pytest
 
 from hand_tracker_ros.bags.convert import hand_state_msg
 from hand_tracker_ros.bags.writer import BagWriter
-from hand_tracker_ros.evaluation.replay import score_recording
+from hand_tracker_ros.evaluation.replay import live_summary, score_recording
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
@@ -36,10 +36,15 @@ def test_estimates_received_a_frame_late_are_scored_against_their_own_frame(
             exact = dataclasses.replace(truth[stamp], status=1)
             writer.write('/hand_state', stamp + period_ns, hand_state_msg(exact))
 
-    outcome = score_recording(recorded, truth, load_rig(synthetic_bag))
+    outcome = score_recording(recorded, truth, load_rig(synthetic_bag), rate=0.5)
 
     assert sorted(outcome.states) == stamps
     assert outcome.scores is not None
     assert outcome.errors_mm.shape == (len(stamps) - 1,)   # the first frame is not scored
     np.testing.assert_allclose(outcome.errors_mm, 0.0, atol=1e-9)
     assert outcome.scores.failures == 0
+    # Received one period after its stamp, in sim time at half speed: two periods of wall time.
+    np.testing.assert_allclose(outcome.latencies_ms, 2 * period_ns / 1e6)
+    assert outcome.joint_states == 0 and outcome.tracked_share == 0.0   # no /joint_states
+    assert f'{len(stamps)} of {len(stamps)} input sets estimated (100 %)' in \
+        live_summary(outcome)
