@@ -60,7 +60,7 @@ class TrackerNodeConfig:
     cameras: tuple[str, ...] = param(DEFAULT_CAMERAS, 'camera namespaces to use; each must be '
                                      'a camera of the rig file')
     rig_file: str = param('', 'rig YAML (intrinsics + extrinsics, geometry.rig schema); '
-                          'required: without it the node stays idle')
+                          'required: without it the node refuses to start')
     inputs: str = param('images', "'images': the composed graph, features and salient_points "
                         "run in this process on <cam>/<image_topic>; 'features': the "
                         'distributed graph, subscribe to the topics of features and '

@@ -150,7 +150,9 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
             states[state.stamp_ns], received[state.stamp_ns] = state, recv_ns
         n_joint_states = topics['/joint_states'].count if '/joint_states' in topics else 0
     latencies = np.array([(recv - stamp) / 1e6 / rate for stamp, recv in received.items()])
-    duration_s = ((max(truth) - min(truth)) / 1e9 / rate + 1 / 30.0) if truth else 0.0
+    # n sets, one period each: the span of their stamps plus one period, at the played rate.
+    span_s = (max(truth) - min(truth)) / 1e9 if len(truth) > 1 else 0.0
+    duration_s = span_s * len(truth) / max(len(truth) - 1, 1) / rate
     common = sorted(set(states) & set(truth)
                     - ({min(truth, default=None)} if skip_first else set()))
     if not common:

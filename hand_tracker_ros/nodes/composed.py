@@ -51,12 +51,10 @@ class InProcessObserver:
         images = [image_from_msg(m, source=c.name, expected_size_px=(c.width, c.height))
                   for c, m in zip(cameras, msgs)]
         headers = [m.header for m in msgs]
-        tracker = self._tracker.session.tracker
-        tracking = (self._tracker.session.status == TrackStatus.TRACKING
-                    and tracker.history.shape[0] > 0)
+        posed = self._tracker.session.tracker.last_posed
+        tracking = self._tracker.session.status == TrackStatus.TRACKING and posed is not None
         config = self._tracker.config
-        rois = (hand_rois(tracker.model.pose(tracker.history[-1], jacobian=False), cameras,
-                          config.roi) if tracking and config.use_roi else None)
+        rois = hand_rois(posed, cameras, config.roi) if tracking and config.use_roi else None
         features = self._features.process_set(images, headers, rois)
         self._count = self._count + 1 if tracking else 0
         if not tracking or self._count % self._every == 0:

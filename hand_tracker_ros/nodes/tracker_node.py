@@ -164,8 +164,6 @@ class TrackerNode(Node):
         self._status: TrackStatus | None = None
         self._reinits = 0
         self._logged: dict[str, float] = {}
-        self._last_set_s: float | None = None
-        self._set_period_s: float | None = None     # moving average of the set arrivals
 
     def _create_outputs(self) -> None:
         cfg = self.config
@@ -232,11 +230,6 @@ class TrackerNode(Node):
         self._first_frame_s.setdefault(camera, now)
         for synced in self._sync.add(camera, stamp_ns, item):
             assert self._pipeline is not None
-            if self._last_set_s is not None:     # the input period, for the fit's budget
-                period = now - self._last_set_s
-                self._set_period_s = (period if self._set_period_s is None
-                                      else 0.9 * self._set_period_s + 0.1 * period)
-            self._last_set_s = now
             self._pipeline.offer(synced, now)
 
     def _on_info(self, camera: str, msg: CameraInfo) -> None:
@@ -309,7 +302,8 @@ class TrackerNode(Node):
             camera_problems=MappingProxyType(problems),
             assembler_counts={c: dict(a.counts) for c, a in self._assemblers.items()},
             sync=self._sync.stats, processed=period['processed'],
-            skipped=self._pipeline.skipped if self._pipeline else 0, latencies_s=period['latencies_s'],
+            skipped=self._pipeline.skipped if self._pipeline else 0,
+            latencies_s=period['latencies_s'],
             processing_s=period['processing_s'], iterations=period['iterations'],
             confidence=period['confidence'], status=status, reinitializations=reinits)
         self._frames.clear()
@@ -329,7 +323,8 @@ class TrackerNode(Node):
     def _track(self, synced: SyncedSet, observations: FrameObservations,
                received_s: float) -> None:
         restarts = self._session.restarts
-        budget_s = self.config.budget_ms / 1e3 or self._set_period_s
+        assert self._pipeline is not None
+        budget_s = self.config.budget_ms / 1e3 or self._pipeline.period_s
         try:
             result = self._session.step(observations, deadline_s=time.monotonic() + budget_s
                                         if budget_s else None)

@@ -29,6 +29,7 @@ Item = TypeVar('Item')
 Observed = TypeVar('Observed')
 
 _POLL_S = 0.2         # longest wait of a thread before it checks for a stop
+_PERIOD_EMA = 0.1     # weight of the newest gap in the moving average of the set period
 
 
 class LatestSet(Generic[Item]):
@@ -79,7 +80,9 @@ class LivePipeline(Generic[Item, Observed]):
                  on_error: Callable[[BaseException], None]) -> None:
         self._observe, self._track, self._on_error = observe, track, on_error
         self._inbox: LatestSet[Item] = LatestSet()
-        self._observed: LatestSet[tuple[Item, Observed, float]] = LatestSet()
+        self._observed: LatestSet[tuple[Item, Observed]] = LatestSet()
+        self._last_offer_s: float | None = None
+        self.period_s: float | None = None   # moving average of the gaps between offers, s
         self._stop = threading.Event()
         self._threads = [threading.Thread(target=self._observer, name='observer', daemon=True),
                          threading.Thread(target=self._tracker, name='tracker', daemon=True)]
@@ -92,7 +95,12 @@ class LivePipeline(Generic[Item, Observed]):
         return self._inbox.skipped
 
     def offer(self, item: Item, received_s: float) -> None:
-        """A new complete set, received at monotonic ``received_s`` (any thread)."""
+        """A new complete set, received at monotonic ``received_s`` (one thread)."""
+        if self._last_offer_s is not None:
+            gap = received_s - self._last_offer_s
+            self.period_s = (gap if self.period_s is None
+                             else (1.0 - _PERIOD_EMA) * self.period_s + _PERIOD_EMA * gap)
+        self._last_offer_s = received_s
         self._inbox.put(item, received_s)
 
     def close(self, timeout_s: float = 10.0) -> None:
@@ -114,14 +122,14 @@ class LivePipeline(Generic[Item, Observed]):
             except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set
                 self._on_error(err)
                 continue
-            self._observed.put((item, observed, received_s), received_s)
+            self._observed.put((item, observed), received_s)
 
     def _tracker(self) -> None:
         while not self._stop.is_set():
             taken = self._observed.take(_POLL_S)
             if taken is None:
                 continue
-            (item, observed, received_s), _ = taken
+            (item, observed), received_s = taken
             try:
                 self._track(item, observed, received_s)
             except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set

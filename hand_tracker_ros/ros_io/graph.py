@@ -56,8 +56,8 @@ def wait_for_tracking_graph(cameras: Iterable[str], outputs: Iterable[str], *,
     ``/<cam>/<part>``) and a recorder to every topic of ``outputs``.
 
     The tracker subscribes once it is warm (its JIT kernels loaded). Frames played before
-    then are lost, and a loaded machine can need more than 8 s to start it. Raises :class:`HandTrackerError` naming the topics still unsubscribed after
-    ``timeout_s``.
+    then are lost, and a loaded machine can need more than 8 s to start it. Raises
+    :class:`HandTrackerError` naming the topics still unsubscribed after ``timeout_s``.
     """
     parts = PARTS if mode == 'distributed' else ('image_raw',)
     topics = {f'/{c}/{part}' for c in cameras for part in parts} | set(outputs)

@@ -117,9 +117,7 @@ def measure(views: Sequence[ModelView], observations: FrameObservations,
 def _full_mask(features: CameraFeatures) -> BoolArray:
     """The observed mask at full image size (features computed in a region of interest
     cover only that region; the rest is background)."""
-    if features.mask.shape == features.image_size_px[::-1]:
-        return features.mask
-    return paste_roi(features.mask, features.roi_px, features.image_size_px).astype(bool)
+    return paste_roi(features.mask, features.roi_px, features.image_size_px, fill=False)
 
 
 def silhouette_iou(views: Sequence[ModelView], observations: FrameObservations) -> float:

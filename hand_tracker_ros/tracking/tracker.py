@@ -179,9 +179,9 @@ class HandTracker:
         free has run, a round that would end after ``deadline_s`` (``time.monotonic``;
         judged by the previous round's duration) is not started: a live tracker keeps to
         its frame budget with the rounds done so far (a coarse round alone leaves the distal
-        joints where they were, which drifts within a few frames). The tracker's history is not changed:
-        :meth:`accept` makes a fit the previous frame of the next one. Requires a history
-        (``reset``), which the flow and temporal terms read.
+        joints where they were, which drifts within a few frames). The tracker's history is
+        not changed: :meth:`accept` makes a fit the previous frame of the next one. Requires
+        a history (``reset``), which the flow and temporal terms read.
         """
         if self._previous is None:
             msg = 'tracker is not initialized: call reset(theta) first'
@@ -234,6 +234,11 @@ class HandTracker:
         assert self._previous is not None
         history = np.vstack([self._previous.thetas, fit.theta[None]])[-2:]
         self._previous = PreviousFrame(fit.posed, fit.views, history)
+
+    @property
+    def last_posed(self) -> PosedHand | None:
+        """The model posed at the last accepted estimate; None before a reset."""
+        return None if self._previous is None else self._previous.posed
 
     @property
     def history(self) -> FloatArray:

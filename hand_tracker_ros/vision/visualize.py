@@ -66,9 +66,12 @@ def paste_roi(roi_array: np.ndarray, roi_px: tuple[int, int, int, int],
     Returns
     -------
     full : (H, W) or (H, W, k) array of ``roi_array.dtype``
+        ``roi_array`` itself when the box is the whole image (not a copy).
     """
     u0, v0, u1, v1 = roi_px
     width, height = image_size_px
+    if (u0, v0, u1, v1) == (0, 0, width, height):
+        return roi_array
     out = np.full((height, width) + roi_array.shape[2:], fill, dtype=roi_array.dtype)
     out[v0:v1, u0:u1] = roi_array
     return out

@@ -45,6 +45,8 @@ def test_estimates_received_a_frame_late_are_scored_against_their_own_frame(
     assert outcome.scores.failures == 0
     # Received one period after its stamp, in sim time at half speed: two periods of wall time.
     np.testing.assert_allclose(outcome.latencies_ms, 2 * period_ns / 1e6)
+    # One estimate per set, a set per period of the bag, played at half speed.
+    np.testing.assert_allclose(outcome.estimates_per_s, 0.5 / (period_ns / 1e9))
     assert outcome.joint_states == 0 and outcome.tracked_share == 0.0   # no /joint_states
     assert f'{len(stamps)} of {len(stamps)} input sets estimated (100 %)' in \
         live_summary(outcome)

@@ -23,6 +23,21 @@ def test_newest_set_wins_and_skipped_sets_are_counted() -> None:
     assert mailbox.wait_empty(0.01)
 
 
+def test_the_set_period_is_the_moving_average_of_the_gaps_between_offers() -> None:
+    live = LivePipeline(lambda k: k, lambda *_: None, lambda err: None)
+    try:
+        assert live.period_s is None
+        live.offer(0, 100.0)
+        assert live.period_s is None            # one offer: no gap yet
+        for k in range(1, 50):
+            live.offer(k, 100.0 + 0.033 * k)
+        assert abs(live.period_s - 0.033) < 1e-9
+        live.offer(50, 100.0 + 0.033 * 49 + 0.133)   # one late set moves it by a tenth
+        assert abs(live.period_s - (0.9 * 0.033 + 0.1 * 0.133)) < 1e-9
+    finally:
+        live.close()
+
+
 def test_slow_tracker_skips_sets_but_tracks_every_observed_one_in_order() -> None:
     observed, tracked, errors = [], [], []
 

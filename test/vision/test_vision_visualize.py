@@ -35,6 +35,8 @@ def test_flow_image_dense_and_sparse():
     assert full.shape == (40, 30, 2) and full.dtype == np.float32
     np.testing.assert_allclose(full[23, 11], [0.5, -1.0])
     assert np.isnan(full).sum() == 2 * (30 * 40 - 1)
+    # A box that is the whole image needs no copy.
+    assert paste_roi(full, (0, 0, 30, 40), (30, 40), fill=np.nan) is full
 
 
 def test_flow_colour_wheel():
