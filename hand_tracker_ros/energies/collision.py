@@ -41,6 +41,7 @@ import numpy as np
 from hand_tracker_ros._typing import BoolArray, FloatArray, Int32Array, IntArray
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.context import CollisionPairs
 from hand_tracker_ros.energies import cone_field
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
@@ -62,30 +63,6 @@ class CollisionConfig:
                                 high=1.0)
     max_pairs: int = param(600, 'Maximum (vertex, receiver face) constraints, i.e. residuals, '
                            'per round (Ballan: 600)', low=1)
-
-
-@dataclass(frozen=True)
-class CollisionPairs:
-    """Constraints of one correspondence round.
-
-    Attributes
-    ----------
-    face_pairs : (K, 2) int64
-        Intersecting faces of non-adjacent parts found at the start of the round.
-    vertex_ids : (M,) int64
-        Intruding vertex of each constraint.
-    face_ids : (M,) int64
-        Receiver face of each constraint.
-    """
-
-    face_pairs: IntArray
-    vertex_ids: IntArray
-    face_ids: IntArray
-
-    @property
-    def n_residuals(self) -> int:
-        """Number of residuals ``M``."""
-        return int(self.vertex_ids.size)
 
 
 def _readonly(*arrays: np.ndarray) -> None:

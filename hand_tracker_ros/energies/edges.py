@@ -51,8 +51,8 @@ from hand_tracker_ros.config import param
 from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
                                                    image_linearize, image_residuals)
 from hand_tracker_ros.errors import ShapeError
-from hand_tracker_ros.tracking.observations import CameraObservation
-from hand_tracker_ros.tracking.views import ModelView
+from hand_tracker_ros.core.observations import CameraObservation
+from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.vision.edges import EdgeMap
 
 _REFERENCE_WIDTH_PX = 640.0

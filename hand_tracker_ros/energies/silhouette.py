@@ -63,8 +63,8 @@ import numpy as np
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.errors import ShapeError
-from hand_tracker_ros.tracking.observations import CameraObservation
-from hand_tracker_ros.tracking.views import ModelView
+from hand_tracker_ros.core.observations import CameraObservation
+from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.vision.features import CameraFeatures
 
 _MIN_RAY_DISTANCE_M = 1e-9

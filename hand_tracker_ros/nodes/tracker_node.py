@@ -72,9 +72,9 @@ from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.pipeline.live import LivePipeline
 from hand_tracker_ros.pipeline.warmup import warm_up
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
-from hand_tracker_ros.tracking.observations import FrameObservations
+from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.tracking.overlay import observation_overlays
-from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
+from hand_tracker_ros.core.result import TrackResult, TrackStatus
 from hand_tracker_ros.tracking.session import TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker
 

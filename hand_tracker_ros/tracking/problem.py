@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.energies.base import Energy
+from hand_tracker_ros.core.energy import Energy
 from hand_tracker_ros.optim.lm import ResidualFunction
 
 

@@ -19,7 +19,7 @@ step Tzionas et al. (IJCV 2016) add to Ballan's tracker. The anchor weight ``w_A
 (1e5: 1 cm of keypoint motion costs 5, one cone constraint a cone height deep 1.5e3), so the
 collision terms win wherever they are active, and the anchor only chooses among the poses that
 resolve them. Constraints of the frame's earlier rounds are kept (see
-:class:`~hand_tracker_ros.tracking.views.RoundContext`), so a round cannot slide a finger back
+:class:`~hand_tracker_ros.core.context.RoundContext`), so a round cannot slide a finger back
 into a contact an earlier one resolved.
 """
 from __future__ import annotations
@@ -33,13 +33,13 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies.collision import CollisionPairs
+from hand_tracker_ros.core.context import CollisionPairs
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy, TemporalTarget
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
-from hand_tracker_ros.tracking.observations import FrameObservations
+from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.tracking.problem import Problem, Term
-from hand_tracker_ros.tracking.views import RoundContext
+from hand_tracker_ros.core.context import RoundContext
 
 COLLISION_TERMS = ('collision', 'volume')
 

@@ -34,7 +34,8 @@ from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.errors import ConfigError, ShapeError
 from hand_tracker_ros.vision.edges import EdgeConfig, EdgeMap, compute_edges
 from hand_tracker_ros.vision.flow import FlowConfig, FlowEstimator, FlowField
-from hand_tracker_ros.vision.image import check_rgb, clip_roi, to_gray
+from hand_tracker_ros.checks import check_rgb
+from hand_tracker_ros.vision.image import clip_roi, to_gray
 from hand_tracker_ros.vision.mask import ForegroundMasker, MaskConfig
 
 

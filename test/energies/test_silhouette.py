@@ -16,9 +16,10 @@ from hand_tracker_ros.render.background import make_background
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.render.rasterizer import render
 from hand_tracker_ros.render.shading import render_rgb
-from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
-                                                    SalientDetections)
-from hand_tracker_ros.tracking.views import RoundContext, model_views
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
+from hand_tracker_ros.vision.detections import SalientDetections
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.views import model_views
 from hand_tracker_ros.vision.features import CameraFeatures, FeatureExtractor, FeaturesConfig
 from hand_tracker_ros.vision.mask import MaskConfig
 

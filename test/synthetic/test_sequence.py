@@ -14,7 +14,7 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import GT_JOINTS_TOPIC, GT_STATE_TOPIC
-from hand_tracker_ros.vision.image_codec import image_from_msg
+from hand_tracker_ros.bags.image_codec import image_from_msg
 
 SMALL = SynthConfig(motion='pinch', n_frames=4, n_cameras=2, seed=5)
 

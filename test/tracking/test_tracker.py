@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.config import from_mapping
-from hand_tracker_ros.pipeline.frames import FrameSet
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.schedule import ScheduleConfig, rounds
-from hand_tracker_ros.tracking.result import TrackStatus
+from hand_tracker_ros.core.result import TrackStatus
 
 
 def _error_mm(result, frame) -> float:

@@ -9,11 +9,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from hand_tracker_ros.energies.collision import CollisionPairs
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.render.contours import ContourConfig, ContourPoints, MeshEdges, contour_points
 from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, render
-from hand_tracker_ros.tracking.observations import FrameObservations
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,36 +36,3 @@ def model_views(posed: Any, faces: Any, edges: MeshEdges,
     return tuple(views)
 
 
-@dataclass(frozen=True, eq=False)
-class PreviousFrame:
-    """The estimate of the previous frame(s), for the flow and temporal terms.
-
-    Attributes
-    ----------
-    posed : PosedHand
-        The model posed at the previous frame's estimate (``theta[t-1]``).
-    views : tuple of ModelView
-        Its per-camera views (visibility at t-1 decides which points flow may carry).
-    thetas : (K, P) float64
-        The last K estimates, oldest first (K >= 1; the temporal prior uses up to 2).
-    """
-
-    posed: Any
-    views: tuple[ModelView, ...]
-    thetas: Any
-
-
-@dataclass(frozen=True, eq=False)
-class RoundContext:
-    """Everything ``Energy.correspond`` may use for one correspondence round.
-
-    ``collisions`` holds the cone-field constraints of the frame's earlier rounds, which the
-    collision term keeps (a round's LM steps could otherwise slide a finger back into a
-    contact an earlier round resolved, unseen until the next round).
-    """
-
-    posed: Any
-    views: tuple[ModelView, ...]
-    observations: FrameObservations
-    previous: PreviousFrame | None
-    collisions: CollisionPairs | None = None
