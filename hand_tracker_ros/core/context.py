@@ -7,11 +7,11 @@ carries the estimate of the previous frame(s) for the flow and temporal terms, a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
-from hand_tracker_ros._typing import IntArray
+from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.views import ModelView
+from hand_tracker_ros.model.hand import PosedHand
 
 
 @dataclass(frozen=True)
@@ -52,9 +52,9 @@ class PreviousFrame:
         The last K estimates, oldest first (K >= 1; the temporal prior uses up to 2).
     """
 
-    posed: Any
+    posed: PosedHand
     views: tuple[ModelView, ...]
-    thetas: Any
+    thetas: FloatArray
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,7 +66,7 @@ class RoundContext:
     contact an earlier round resolved, unseen until the next round).
     """
 
-    posed: Any
+    posed: PosedHand
     views: tuple[ModelView, ...]
     observations: FrameObservations
     previous: PreviousFrame | None

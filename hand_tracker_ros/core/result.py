@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Any
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.model.hand import PosedHand
@@ -45,8 +44,10 @@ class TrackResult:
         The image evidence the confidence was computed from.
     timings_s : dict of str to float
         Wall time of each stage (s); ``total`` is the latency of the set.
-    labels : tuple
-        Per camera: detection -> finger (-1 unassigned).
+    labels : tuple of tuple
+        The ``labels`` of every round correspondence that has them, in term order (the
+        salient term: per camera, detection -> finger, -1 unassigned; the limits term: the
+        active constraints).
     recovered_from : str
         The hypothesis the estimate came from when recovery ran (empty otherwise).
     """
@@ -60,5 +61,5 @@ class TrackResult:
     confidence: float
     evidence: dict[str, float] = field(default_factory=dict)
     timings_s: dict[str, float] = field(default_factory=dict)
-    labels: tuple[Any, ...] = ()
+    labels: tuple[tuple[object, ...], ...] = ()
     recovered_from: str = ''

@@ -7,11 +7,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.render.contours import ContourConfig, ContourPoints, MeshEdges, contour_points
 from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, render
+from hand_tracker_ros.model.hand import PosedHand
+from numpy.typing import ArrayLike
 
 
 @dataclass(frozen=True, eq=False)
@@ -23,7 +24,7 @@ class ModelView:
     contours: ContourPoints
 
 
-def model_views(posed: Any, faces: Any, edges: MeshEdges,
+def model_views(posed: PosedHand, faces: ArrayLike, edges: MeshEdges,
                 cameras: Sequence[PinholeCamera], *,
                 render_config: RenderConfig = RenderConfig(),
                 contour_config: ContourConfig = ContourConfig()) -> tuple[ModelView, ...]:

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numba
 import numpy as np
@@ -33,6 +32,7 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.geometry.camera import PinholeCamera, distort_point, pixel_jacobian
+from hand_tracker_ros.model.hand import PosedHand
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,7 +125,7 @@ def _rows(vertices, vertices_jac, ids, R, t, intrinsics, dist8, targets, s, norm
     return r, J
 
 
-def _block_rows(posed: Any, block: ImageTargets, jacobian: bool
+def _block_rows(posed: PosedHand, block: ImageTargets, jacobian: bool
                 ) -> tuple[FloatArray, FloatArray | None]:
     camera = block.camera
     line = block.normals_px is not None
@@ -144,13 +144,13 @@ def block_vertices(blocks: Sequence[ImageTargets]) -> IntArray:
     return np.concatenate([np.zeros(0, np.int64)] + [b.vertex_ids for b in blocks])
 
 
-def image_residuals(posed: Any, blocks: Sequence[ImageTargets]) -> FloatArray:
+def image_residuals(posed: PosedHand, blocks: Sequence[ImageTargets]) -> FloatArray:
     """Stacked residuals ``r (M,)`` (px) of all blocks, in block order."""
     rows = [_block_rows(posed, b, False)[0] for b in blocks]
     return np.concatenate(rows) if rows else np.zeros(0)
 
 
-def image_linearize(posed: Any, blocks: Sequence[ImageTargets]
+def image_linearize(posed: PosedHand, blocks: Sequence[ImageTargets]
                     ) -> tuple[FloatArray, FloatArray]:
     """Stacked residuals ``r (M,)`` (px) and Jacobian ``J (M, P)`` (px per parameter unit)."""
     n_params = int(np.size(posed.theta))

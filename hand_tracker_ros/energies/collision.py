@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -45,6 +44,8 @@ from hand_tracker_ros.core.context import CollisionPairs
 from hand_tracker_ros.energies import cone_field
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
+from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.core.context import RoundContext
 
 logger = logging.getLogger(__name__)
 
@@ -104,7 +105,7 @@ class CollisionEnergy:
         _readonly(self.faces, self.face_part, self.adjacent_parts)
 
     @classmethod
-    def from_model(cls, config: CollisionConfig, model: Any) -> CollisionEnergy:
+    def from_model(cls, config: CollisionConfig, model: HandModel) -> CollisionEnergy:
         """Build from a ``HandModel`` (uses ``faces``, ``vertex_part``, ``adjacent_parts``)."""
         return cls(config, model.faces, model.vertex_part, model.adjacent_parts)
 
@@ -113,7 +114,7 @@ class CollisionEnergy:
         """Weight of the term's cost ``0.5 * weight * |r|^2``."""
         return self.config.weight
 
-    def correspond(self, context: Any) -> CollisionPairs:
+    def correspond(self, context: RoundContext) -> CollisionPairs:
         """Constraints for one round, from ``context.posed.vertices_m`` (V, 3) float64."""
         return self.pairs_at(context.posed.vertices_m, context.collisions)
 
@@ -159,7 +160,7 @@ class CollisionEnergy:
                                         vertices_m[self.faces[face_ids]] * scale)
         return cone_field.residual(geom, self.config.sigma)
 
-    def residuals(self, posed: Any, pairs: CollisionPairs) -> FloatArray:
+    def residuals(self, posed: PosedHand, pairs: CollisionPairs) -> FloatArray:
         """Residuals ``r (M,)`` float64 of ``posed.vertices_m`` for the round's constraints."""
         if pairs.n_residuals == 0:  # the common case; skips the cone geometry's dispatch
             return np.zeros(0)
@@ -169,7 +170,7 @@ class CollisionEnergy:
         """Vertex ids (K,) int64 the rows read: intruding vertices and receiving triangles."""
         return np.concatenate([pairs.vertex_ids, self.faces[pairs.face_ids].ravel()])
 
-    def linearize(self, posed: Any, pairs: CollisionPairs) -> tuple[FloatArray, FloatArray]:
+    def linearize(self, posed: PosedHand, pairs: CollisionPairs) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` and Jacobian ``dr/dtheta (M, P)`` using ``posed.vertices_jac``."""
         jac = posed.vertices_jac
         if jac is None:

@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numba
 import numpy as np
@@ -54,6 +53,8 @@ from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.core.observations import CameraObservation
 from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.vision.edges import EdgeMap
+from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.core.context import RoundContext
 
 _REFERENCE_WIDTH_PX = 640.0
 
@@ -225,11 +226,16 @@ class EdgeEnergy:
         self.vertex_part = np.asarray(vertex_part, dtype=np.int64)
 
     @classmethod
-    def from_model(cls, config: EdgeEnergyConfig, model: Any) -> EdgeEnergy:
+    def from_model(cls, config: EdgeEnergyConfig, model: HandModel) -> EdgeEnergy:
         """The term for ``model`` (a HandModel)."""
         return cls(config, model.vertex_part)
 
-    def correspond(self, context: Any) -> EdgeCorrespondences:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> EdgeCorrespondences:
         """Match every camera's contour points to image edges (no blocks when disabled)."""
         cameras = context.observations.cameras
         if len(cameras) != len(context.views):
@@ -240,11 +246,11 @@ class EdgeEnergy:
         return EdgeCorrespondences(tuple(self._match(view, obs)
                                          for view, obs in zip(context.views, cameras)))
 
-    def residuals(self, posed: Any, correspondences: EdgeCorrespondences) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: EdgeCorrespondences) -> FloatArray:
         """Point-to-line residuals ``r (M,)`` (px)."""
         return image_residuals(posed, correspondences.blocks)
 
-    def linearize(self, posed: Any, correspondences: EdgeCorrespondences
+    def linearize(self, posed: PosedHand, correspondences: EdgeCorrespondences
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (px) and analytic Jacobian ``J (M, P)``."""
         return image_linearize(posed, correspondences.blocks)

@@ -74,7 +74,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
-from typing import Any
 
 import numpy as np
 
@@ -86,6 +85,8 @@ from hand_tracker_ros.geometry.rotations import (euler_xzy_from_matrix,
 from hand_tracker_ros.model import kinematics
 from hand_tracker_ros.model.layout import P
 from hand_tracker_ros.model.skeleton import FINGER_NAMES, RestSkeleton, joint_limits
+from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.core.context import RoundContext
 
 NAME = 'limits'
 
@@ -250,11 +251,11 @@ class JointLimitsEnergy:
             [config.thumb_plane_palm_deg] + [config.plane_palm_deg] * 4))
 
     @classmethod
-    def from_model(cls, config: JointLimitsConfig, model: Any) -> JointLimitsEnergy:
+    def from_model(cls, config: JointLimitsConfig, model: HandModel) -> JointLimitsEnergy:
         """The term for a :class:`~hand_tracker_ros.model.hand.HandModel`."""
         return cls(config, model.rest, model.rest_bone_transforms)
 
-    def measure(self, posed: Any) -> LimitAngles:
+    def measure(self, posed: PosedHand) -> LimitAngles:
         """The angles this term limits, for a posed hand (``bone_transforms``, ``keypoints_m``)."""
         rot = posed.bone_transforms[:, :3, :3]
         flex, abd, twist = np.zeros(5), np.zeros(5), np.zeros(5)
@@ -272,11 +273,16 @@ class JointLimitsEnergy:
             normals[i], elev[i] = n, np.arcsin(np.clip(n @ rot[0][:, 2], -1.0, 1.0))
         return LimitAngles(flex, abd, twist, upper, normals, elev)
 
-    def correspond(self, context: Any) -> LimitTargets:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> LimitTargets:
         """Find the violated limits of ``context.posed`` (a RoundContext) and their targets."""
         return self.targets(context.posed)
 
-    def targets(self, posed: Any) -> LimitTargets:
+    def targets(self, posed: PosedHand) -> LimitTargets:
         """The violated limits of ``posed`` and their targets (see :class:`LimitTargets`)."""
         angles = self.measure(posed)
         blocks: list[tuple[int, int, int, FloatArray, str]] = []
@@ -294,7 +300,7 @@ class JointLimitsEnergy:
         return LimitTargets(np.array(child, dtype=np.int64), np.array(parent, dtype=np.int64),
                             np.array(frame, dtype=np.int64), np.array(target), labels)
 
-    def _base_blocks(self, posed: Any, angles: LimitAngles, i: int,
+    def _base_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
                      finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
         """The seed's R_L for the base joint of finger ``i`` if it is outside its limits."""
         k0, bone = 6 + 4 * i, 1 + 3 * i
@@ -313,7 +319,7 @@ class JointLimitsEnergy:
         joint = 'cmc' if finger == 'thumb' else 'mcp'
         return [(2 + 4 * i, 1 + 4 * i, 0, r_b.T @ r_limit @ rest_vector, f'{finger}_{joint}')]
 
-    def _upper_blocks(self, posed: Any, angles: LimitAngles, i: int,
+    def _upper_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
                       finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
         """Rotations about the finger-plane normal bringing the 2nd/3rd joints to their limits."""
         n = angles.plane_normal[i]
@@ -334,7 +340,7 @@ class JointLimitsEnergy:
             out.append((2 + 4 * i + j, 1 + 4 * i + j, frame, w_p.T @ target, f'{finger}_{joint}'))
         return out
 
-    def _plane_blocks(self, posed: Any, angles: LimitAngles, i: int,
+    def _plane_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
                       finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
         """Smallest rotation of the finger plane to its elevation limit, on all three bones."""
         lo, hi = self.plane_range[i]
@@ -355,7 +361,7 @@ class JointLimitsEnergy:
         return [(2 + 4 * i + s, 1 + 4 * i + s, 0, palm.T @ r_limit @ bones[s],
                  f'{finger}_plane_{segments[s]}') for s in range(3)]
 
-    def residuals(self, posed: Any, correspondences: LimitTargets) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: LimitTargets) -> FloatArray:
         """Residuals ``r (M,)`` (m): ``W_p^T a(c^t) - u`` per block, x y z of frame ``p``."""
         c = correspondences
         bone = posed.keypoints_m[c.child_kp] - posed.keypoints_m[c.parent_kp]
@@ -366,7 +372,7 @@ class JointLimitsEnergy:
         """No mesh vertex: the rows read ``keypoints_jac`` only."""
         return np.zeros(0, dtype=np.int64)
 
-    def linearize(self, posed: Any, correspondences: LimitTargets
+    def linearize(self, posed: PosedHand, correspondences: LimitTargets
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per unit)."""
         c = correspondences

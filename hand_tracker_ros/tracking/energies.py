@@ -20,7 +20,6 @@ too deep for the cone field (:mod:`hand_tracker_ros.energies.volume_collision`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 from hand_tracker_ros.config import nested
 from hand_tracker_ros.energies.collision import CollisionConfig, CollisionEnergy
@@ -33,6 +32,7 @@ from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy
 from hand_tracker_ros.energies.volume_collision import (VolumeCollisionConfig,
                                                         VolumeCollisionEnergy)
 from hand_tracker_ros.tracking.problem import Term
+from hand_tracker_ros.model.hand import HandModel
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,7 @@ _ENERGIES = (('edges', EdgeEnergy), ('flow', FlowEnergy), ('salient', SalientEne
              ('silhouette', SilhouetteEnergy), ('temporal', TemporalEnergy))
 
 
-def build_terms(config: TermsConfig, model: Any) -> list[Term]:
+def build_terms(config: TermsConfig, model: HandModel) -> list[Term]:
     """The enabled terms with their weights, built for ``model``."""
     terms = []
     for key, cls in _ENERGIES:

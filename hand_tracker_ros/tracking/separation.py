@@ -27,7 +27,6 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -40,6 +39,7 @@ from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.tracking.problem import Problem, Term
 from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 
 COLLISION_TERMS = ('collision', 'volume')
 
@@ -64,7 +64,7 @@ class SeparationResult:
     """Outcome of :meth:`Separator.separate`."""
 
     theta: FloatArray                  # (P,)
-    posed: Any                         # the hand posed at ``theta`` (no Jacobian)
+    posed: PosedHand                   # the hand posed at ``theta`` (no Jacobian)
     rounds: int                        # separation rounds run
     iterations: int                    # LM iterations over them
 
@@ -83,7 +83,7 @@ class Separator:
         (``config.iterations``).
     """
 
-    def __init__(self, model: Any, terms: Sequence[Term], config: SeparationConfig,
+    def __init__(self, model: HandModel, terms: Sequence[Term], config: SeparationConfig,
                  lm: LMConfig) -> None:
         self.model = model
         self.config = config

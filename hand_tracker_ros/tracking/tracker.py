@@ -17,9 +17,8 @@ tracking session's policy (:mod:`.session`).
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -70,8 +69,10 @@ class Fit:
         LM iterations over all rounds and separation rounds.
     energy_costs : dict of str to float
         ``0.5 * w * |r|^2`` per term at the estimate, with the last round's correspondences.
-    labels : tuple
-        Per camera: detection -> finger (-1 unassigned), from the salient term.
+    labels : tuple of tuple
+        The ``labels`` of every round correspondence that has them, in term order (the
+        salient term: per camera, detection -> finger, -1 unassigned; the limits term: the
+        active constraints).
     timings_s : dict of str to float
         Wall time of each stage (s).
     """
@@ -81,7 +82,7 @@ class Fit:
     views: tuple[ModelView, ...]
     iterations: int
     energy_costs: dict[str, float]
-    labels: tuple[Any, ...] = ()
+    labels: tuple[tuple[object, ...], ...] = ()
     timings_s: dict[str, float] = field(default_factory=dict)
 
 
@@ -121,7 +122,7 @@ class HandTracker:
                      observations: FrameObservations, timings: dict[str, float],
                      start_views: tuple[ModelView, ...] | None,
                      collisions: CollisionPairs | None
-                     ) -> tuple[FloatArray, int, Problem, tuple[Any, ...]]:
+                     ) -> tuple[FloatArray, int, Problem, tuple[object, ...]]:
         start = time.perf_counter()
         posed = self.model.pose(theta, jacobian=False)
         views = start_views if start_views is not None else self.views(posed)
@@ -144,12 +145,12 @@ class HandTracker:
         return result.x, result.n_iterations, problem, tuple(correspondences)
 
     def _solve_pso(self, theta: FloatArray, observations: FrameObservations,
-                   timings: dict[str, float]) -> tuple[FloatArray, int, Problem, tuple[Any, ...]]:
+                   timings: dict[str, float]) -> tuple[FloatArray, int, Problem, tuple[object, ...]]:
         """The HOPE baseline: PSO on the same objective, re-anchored every generation."""
         problem = Problem(self.model, self._terms)
-        anchor_corrs: list[tuple[Any, ...]] = []
+        anchor_corrs: list[tuple[object, ...]] = []
 
-        def cost_at(anchor: FloatArray) -> Any:
+        def cost_at(anchor: FloatArray) -> Callable[[FloatArray], FloatArray]:
             posed = self.model.pose(anchor, jacobian=False)
             context = RoundContext(posed, self.views(posed), observations, self._previous)
             anchor_corrs.append(problem.correspond(context))
