@@ -17,7 +17,8 @@ Cost convention: a term's cost is ``0.5 * weight * |r|^2``.
 """
 from __future__ import annotations
 
-from typing import Protocol, TypeVar
+from dataclasses import dataclass
+from typing import Any, Protocol, TypeVar
 
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.core.context import RoundContext
@@ -59,3 +60,16 @@ class Energy(Protocol[C]):
     def jacobian_vertices(self, correspondences: C) -> IntArray:
         """Mesh vertices (K,) int64 whose rows of ``posed.vertices_jac`` ``linearize`` reads
         (repeats allowed); the problem skins only the union of these with their Jacobian."""
+
+
+@dataclass(frozen=True)
+class Term:
+    """An energy term with its weight (cost = 0.5 * weight * |r|^2)."""
+
+    energy: Energy[Any]   # terms of any correspondence type are stacked together
+    weight: float
+
+    @property
+    def name(self) -> str:
+        """The energy's name."""
+        return self.energy.name

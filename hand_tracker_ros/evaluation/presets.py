@@ -34,14 +34,13 @@ from __future__ import annotations
 from typing import Any
 
 from hand_tracker_ros.config import flatten, from_mapping
+from hand_tracker_ros.energies.registry import NAMES as TERMS
+from hand_tracker_ros.energies.registry import ablation_terms
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 
-TERMS = ('edges', 'flow', 'salient', 'collision', 'volume', 'limits', 'silhouette', 'temporal')
+# The rows name their data terms by the registry's keys (``energies/registry.py``).
 ABLATION = {
-    'LO+E': ('edges', 'temporal'),
-    'LO+EC': ('edges', 'collision', 'volume', 'temporal'),
-    'LO+ECO': ('edges', 'collision', 'volume', 'flow', 'temporal'),
-    'LO+ECOS': ('edges', 'collision', 'volume', 'flow', 'salient', 'temporal'),
+    **{f'LO+{letters}': ablation_terms(letters) for letters in ('E', 'EC', 'ECO', 'ECOS')},
     'full': TERMS,
 }
 # PSO gets no less time than the full LM method: 16 x 5 objective evaluations of ~2 ms plus one

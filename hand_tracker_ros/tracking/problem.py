@@ -12,29 +12,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.core.energy import Energy
+from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.optim.lm import ResidualFunction
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.core.context import RoundContext
-
-
-@dataclass(frozen=True)
-class Term:
-    """An energy term with its weight (cost = 0.5 * weight * |r|^2)."""
-
-    energy: Energy[Any]
-    weight: float
-
-    @property
-    def name(self) -> str:
-        """The energy's name."""
-        return self.energy.name
 
 
 class Problem:

@@ -37,11 +37,12 @@ from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy, T
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
 from hand_tracker_ros.core.observations import FrameObservations
-from hand_tracker_ros.tracking.problem import Problem, Term
+from hand_tracker_ros.core.energy import Term
+from hand_tracker_ros.energies.registry import SEPARATION_TERMS
+from hand_tracker_ros.tracking.problem import Problem
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 
-COLLISION_TERMS = ('collision', 'volume')
 
 
 @dataclass(frozen=True)
@@ -76,7 +77,7 @@ class Separator:
     ----------
     model : HandModel
     terms : sequence of Term
-        The tracker's enabled terms; the ones named in ``COLLISION_TERMS`` are used.
+        The tracker's enabled terms; the ones named in ``SEPARATION_TERMS`` are used.
     config : SeparationConfig
     lm : LMConfig
         Settings of each round's Levenberg-Marquardt call, but for the iteration count
@@ -88,7 +89,7 @@ class Separator:
         self.model = model
         self.config = config
         self.lm = dataclasses.replace(lm, max_iterations=config.iterations)
-        self._terms = [t for t in terms if t.name in COLLISION_TERMS]
+        self._terms = [t for t in terms if t.name in SEPARATION_TERMS]
         self._collision = next((t.energy for t in self._terms if t.name == 'collision'), None)
         anchor = TemporalEnergy(TemporalConfig(mode='damping'), model.rest,
                                 model.keypoint_local_m)

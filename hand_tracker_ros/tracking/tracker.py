@@ -31,7 +31,8 @@ from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
 from hand_tracker_ros.optim.pso import PSOConfig, particle_swarm
 from hand_tracker_ros.render.contours import MeshEdges
-from hand_tracker_ros.tracking.energies import TermsConfig, build_terms
+from hand_tracker_ros.energies.registry import TermsConfig, build_terms
+from hand_tracker_ros.energies import flow
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.tracking.problem import Problem
 from hand_tracker_ros.tracking.schedule import Round, ScheduleConfig, rounds
@@ -127,7 +128,7 @@ class HandTracker:
         posed = self.model.pose(theta, jacobian=False)
         views = start_views if start_views is not None else self.views(posed)
         context = RoundContext(posed, views, observations, self._previous, collisions)
-        terms = [t for t in self._terms if use_flow or t.name != 'flow']
+        terms = [t for t in self._terms if use_flow or t.name != flow.NAME]
         problem = Problem(self.model, terms)
         mid = time.perf_counter()
         correspondences = []

@@ -13,7 +13,7 @@ from hand_tracker_ros.geometry.triangle_pairs import (face_parts, intersecting_p
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.optim.lm import LMConfig
 from hand_tracker_ros.synthetic.motions import trajectory
-from hand_tracker_ros.tracking.problem import Term
+from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.tracking.separation import SeparationConfig, Separator
 
 
