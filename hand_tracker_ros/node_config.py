@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from hand_tracker_ros.bags.playback import PlaybackConfig
 from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.graph_nodes import NODES
 from hand_tracker_ros.tracking.roi import RoiConfig
 from hand_tracker_ros.tracking.session import SessionConfig
 from hand_tracker_ros.tracking.tracker import TrackerConfig
@@ -153,3 +154,12 @@ class RecorderNodeConfig:
     discovery_period_s: float = param(0.1, 'period of the graph poll that finds the types '
                                       'of topics not yet recorded', unit='s', low=0.01,
                                       high=10.0)
+
+
+def _config_class(node: str) -> type:
+    """``features`` -> ``FeaturesNodeConfig``: every node's config class by its name."""
+    return globals()[''.join(part.title() for part in node.split('_')) + 'NodeConfig']
+
+
+#: Config class of every node of :data:`~hand_tracker_ros.graph_nodes.NODES`, in its order.
+NODE_CONFIGS: dict[str, type] = {node: _config_class(node) for node in NODES}

@@ -17,7 +17,7 @@ from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration, PythonExpression
 from launch_ros.actions import Node
 
-NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')
+from hand_tracker_ros.graph_nodes import NODES
 
 
 def generate_launch_description():

@@ -36,7 +36,6 @@ from hand_tracker_ros.launcher import (GRAPH_MODES, PROCESS_NODES, TRACKING_PROC
                                        player_waits_for_image_consumers, ros_list,
                                        tracker_mode_args)
 
-NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')   # in either mode
 RECORDED = ('/joint_states', '/hand_state', '/markers', '/diagnostics')
 
 
