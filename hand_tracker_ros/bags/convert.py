@@ -218,7 +218,7 @@ class HandStateValues:
     frame_id : str
         World frame of the estimate.
     status : int
-        0 initializing, 1 tracking, 2 lost (the message's ``STATUS_*`` constants).
+        A :class:`~hand_tracker_ros.status.TrackStatus` value (the message's ``STATUS_*``).
     confidence : float
         Probability in [0, 1] that the estimate is right.
     joint_names : tuple of str, length P

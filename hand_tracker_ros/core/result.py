@@ -6,18 +6,10 @@ markers, ``/diagnostics``) and into the offline estimates bags, so they live bel
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import IntEnum
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.model.hand import PosedHand
-
-
-class TrackStatus(IntEnum):
-    """Matches ``hand_tracker_msgs/HandState`` STATUS_* constants."""
-
-    INITIALIZING = 0
-    TRACKING = 1
-    LOST = 2
+from hand_tracker_ros.status import TrackStatus
 
 
 @dataclass(frozen=True, eq=False)

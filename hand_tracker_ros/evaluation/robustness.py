@@ -32,7 +32,7 @@ from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.core.result import TrackStatus
+from hand_tracker_ros.status import TrackStatus
 
 LOG = logging.getLogger(__name__)
 FAIL_MM, RECOVERED_MM = 15.0, 10.0

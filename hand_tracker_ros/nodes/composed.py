@@ -21,7 +21,7 @@ from hand_tracker_ros.nodes.tracker_node import TrackerNode
 from hand_tracker_ros.sync.approximate import SyncedSet
 from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
 from hand_tracker_ros.vision.detections import SalientDetections
-from hand_tracker_ros.core.result import TrackStatus
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.roi import hand_rois
 from hand_tracker_ros.bags.image_codec import image_from_msg
 

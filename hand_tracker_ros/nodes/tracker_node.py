@@ -74,7 +74,8 @@ from hand_tracker_ros.pipeline.warmup import warm_up
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.tracking.overlay import observation_overlays
-from hand_tracker_ros.core.result import TrackResult, TrackStatus
+from hand_tracker_ros.core.result import TrackResult
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.session import TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker
 

@@ -23,7 +23,8 @@ from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.pipeline.frames import frame_sets, ground_truth, load_rig, rig_file
 from hand_tracker_ros.pipeline.offline import Detector, OfflinePipeline, PipelineConfig
-from hand_tracker_ros.core.result import TrackResult, TrackStatus
+from hand_tracker_ros.core.result import TrackResult
+from hand_tracker_ros.status import TrackStatus
 
 LOG = logging.getLogger(__name__)
 JOINTS_TOPIC = '/hand/joint_states'

@@ -36,7 +36,8 @@ from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.sync.approximate import SyncStats
 from hand_tracker_ros.tracking.overlay import KEYPOINT_PARENTS
-from hand_tracker_ros.core.result import TrackResult, TrackStatus
+from hand_tracker_ros.core.result import TrackResult
+from hand_tracker_ros.status import TrackStatus
 
 BONE_WIDTH_M = 0.003
 JOINT_DIAMETER_M = 0.008

@@ -35,7 +35,8 @@ from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measu
 from hand_tracker_ros.tracking.hypotheses import constant_velocity, turned_hypotheses
 from hand_tracker_ros.tracking.initialize import InitConfig, initialize
 from hand_tracker_ros.core.observations import FrameObservations
-from hand_tracker_ros.core.result import TrackResult, TrackStatus
+from hand_tracker_ros.core.result import TrackResult
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.core.result import TrackStatus
+from hand_tracker_ros.status import TrackStatus
 
 pytestmark = pytest.mark.ros
 PUBLISH_PERIOD_S = 0.5

@@ -9,7 +9,7 @@ from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.schedule import ScheduleConfig, rounds
-from hand_tracker_ros.core.result import TrackStatus
+from hand_tracker_ros.status import TrackStatus
 
 
 def _error_mm(result, frame) -> float:
