@@ -27,7 +27,7 @@ from hand_tracker_ros.config import param
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.synthetic.motions import RELAXED_DEG
+from hand_tracker_ros.model.poses import RELAXED_DEG
 from hand_tracker_ros.tracking.evidence import silhouette_iou
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.tracking.schedule import QUICK, Round
