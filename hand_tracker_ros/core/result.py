@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.model.hand import PosedHand
+from hand_tracker_ros.optim.lm import FitStatus
 from hand_tracker_ros.status import TrackStatus
 
 
@@ -42,6 +43,8 @@ class TrackResult:
         active constraints).
     recovered_from : str
         The hypothesis the estimate came from when recovery ran (empty otherwise).
+    lm_statuses : tuple of FitStatus
+        Why each Levenberg-Marquardt call of the kept fit stopped (``Fit.lm_statuses``).
     """
 
     stamp_ns: int
@@ -55,3 +58,4 @@ class TrackResult:
     timings_s: dict[str, float] = field(default_factory=dict)
     labels: tuple[tuple[object, ...], ...] = ()
     recovered_from: str = ''
+    lm_statuses: tuple[FitStatus, ...] = ()

@@ -74,7 +74,9 @@ MESSAGES = {
 class LMConfig:
     """Levenberg-Marquardt settings."""
 
-    max_iterations: int = param(10, 'LM iterations per call (Ballan: 10)', low=1, high=1000)
+    max_iterations: int = param(10, 'LM iterations per call at most (Ballan: 10); the tracker '
+                                "runs schedule.iterations per round and separation.iterations "
+                                'per separation round, each capped by this', low=1, high=1000)
     tau: float = param(1e-3, 'initial damping, relative to diag(J^T J)', low=1e-12, high=1e6)
     ftol: float = param(1e-6, 'stop when the relative cost decrease is below this',
                         low=0.0, high=1.0)

@@ -35,7 +35,7 @@ from hand_tracker_ros.config import param
 from hand_tracker_ros.core.context import CollisionPairs
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy, TemporalTarget
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
+from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.energies.registry import SEPARATION_TERMS
@@ -68,6 +68,7 @@ class SeparationResult:
     posed: PosedHand                   # the hand posed at ``theta`` (no Jacobian)
     rounds: int                        # separation rounds run
     iterations: int                    # LM iterations over them
+    statuses: tuple[FitStatus, ...] = ()  # why each round's LM call stopped
 
 
 class Separator:
@@ -80,15 +81,16 @@ class Separator:
         The tracker's enabled terms; the ones named in ``SEPARATION_TERMS`` are used.
     config : SeparationConfig
     lm : LMConfig
-        Settings of each round's Levenberg-Marquardt call, but for the iteration count
-        (``config.iterations``).
+        Settings of each round's Levenberg-Marquardt call; it runs ``config.iterations``,
+        capped by ``lm.max_iterations``.
     """
 
     def __init__(self, model: HandModel, terms: Sequence[Term], config: SeparationConfig,
                  lm: LMConfig) -> None:
         self.model = model
         self.config = config
-        self.lm = dataclasses.replace(lm, max_iterations=config.iterations)
+        self.lm = dataclasses.replace(lm, max_iterations=min(config.iterations,
+                                                             lm.max_iterations))
         self._terms = [t for t in terms if t.name in SEPARATION_TERMS]
         self._collision = next((t.energy for t in self._terms if t.name == 'collision'), None)
         anchor = TemporalEnergy(TemporalConfig(mode='damping'), model.rest,
@@ -101,6 +103,7 @@ class Separator:
         posed = self.model.pose(theta, jacobian=False)
         anchor = TemporalTarget(posed.keypoints_m)
         n_rounds = iterations = 0
+        statuses: list[FitStatus] = []
         for _ in range(self.config.rounds if self._collision is not None else 0):
             context = RoundContext(posed, (), FrameObservations(0, ()), None, collisions)
             collisions = self._collision.correspond(context)
@@ -119,4 +122,5 @@ class Separator:
             posed = self.model.pose(theta, jacobian=False)
             n_rounds += 1
             iterations += result.n_iterations
-        return SeparationResult(theta, posed, n_rounds, iterations)
+            statuses.append(result.status)
+        return SeparationResult(theta, posed, n_rounds, iterations, tuple(statuses))

@@ -162,7 +162,8 @@ class TrackingSession:
         fit = judged.fit
         return TrackResult(observations.stamp_ns, status, fit.theta, fit.posed, iterations,
                            fit.energy_costs, judged.confidence, judged.evidence, timings,
-                           fit.labels, '' if judged.name == 'previous' else judged.name)
+                           fit.labels, '' if judged.name == 'previous' else judged.name,
+                           lm_statuses=fit.lm_statuses)
 
     @property
     def _can_start(self) -> bool:

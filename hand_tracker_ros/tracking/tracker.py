@@ -16,6 +16,7 @@ tracking session's policy (:mod:`.session`).
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -28,7 +29,7 @@ from hand_tracker_ros.core.context import CollisionPairs
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
+from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
 from hand_tracker_ros.optim.pso import PSOConfig, particle_swarm
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.energies.registry import TermsConfig, build_terms
@@ -76,6 +77,9 @@ class Fit:
         active constraints).
     timings_s : dict of str to float
         Wall time of each stage (s).
+    lm_statuses : tuple of FitStatus
+        Why each Levenberg-Marquardt call stopped, in order: the rounds, then the separation
+        rounds (empty for PSO).
     """
 
     theta: FloatArray
@@ -85,6 +89,7 @@ class Fit:
     energy_costs: dict[str, float]
     labels: tuple[tuple[object, ...], ...] = ()
     timings_s: dict[str, float] = field(default_factory=dict)
+    lm_statuses: tuple[FitStatus, ...] = ()
 
 
 class HandTracker:
@@ -97,7 +102,7 @@ class HandTracker:
         self.config = config
         self._edges = MeshEdges.from_faces(model.faces)
         self._terms = build_terms(config.terms, model)
-        self._separator = Separator(model, self._terms, config.separation, self._lm_config())
+        self._separator = Separator(model, self._terms, config.separation, config.lm)
         self._rounds = rounds(config.schedule)
         self._previous: PreviousFrame | None = None
 
@@ -122,7 +127,7 @@ class HandTracker:
     def _solve_round(self, theta: FloatArray, free: np.ndarray, use_flow: bool,
                      observations: FrameObservations, timings: dict[str, float],
                      start_views: tuple[ModelView, ...] | None,
-                     collisions: CollisionPairs | None
+                     collisions: CollisionPairs | None, statuses: list[FitStatus]
                      ) -> tuple[FloatArray, int, Problem, tuple[object, ...]]:
         start = time.perf_counter()
         posed = self.model.pose(theta, jacobian=False)
@@ -143,6 +148,7 @@ class HandTracker:
                                      self.model.lower, self.model.upper, free=free,
                                      config=self._lm_config(), angular=Layout.revolute)
         timings['solve'] = timings.get('solve', 0.0) + time.perf_counter() - t0
+        statuses.append(result.status)
         return result.x, result.n_iterations, problem, tuple(correspondences)
 
     def _solve_pso(self, theta: FloatArray, observations: FrameObservations,
@@ -167,10 +173,10 @@ class HandTracker:
         return result.x, result.evaluations, problem, anchor_corrs[-1]
 
     def _lm_config(self) -> LMConfig:
+        """The LM settings of a round: ``schedule.iterations``, capped by ``lm.max_iterations``."""
         lm = self.config.lm
-        return LMConfig(max_iterations=self.config.schedule.iterations, tau=lm.tau,
-                        ftol=lm.ftol, xtol=lm.xtol, max_mean_step_rad=lm.max_mean_step_rad,
-                        max_damping=lm.max_damping)
+        return dataclasses.replace(lm, max_iterations=min(self.config.schedule.iterations,
+                                                          lm.max_iterations))
 
     def fit(self, observations: FrameObservations, start: FloatArray | None = None, *,
             plan: Sequence[Round] | None = None, separate: bool = True,
@@ -195,6 +201,7 @@ class HandTracker:
                  else np.clip(np.asarray(start, np.float64), self.model.lower, self.model.upper))
         theta = theta.copy()
         iterations = 0
+        statuses: list[FitStatus] = []
         problem, correspondences = None, ()
         if self.config.solver == 'pso':
             theta, iterations, problem, correspondences = self._solve_pso(theta, observations,
@@ -209,7 +216,8 @@ class HandTracker:
                 break
             round_start = time.monotonic()
             theta, n_iter, problem, correspondences = self._solve_round(
-                theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions)
+                theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions,
+                statuses)
             collisions = dict(zip(problem.names, correspondences)).get('collision')
             start_views = None
             iterations += n_iter
@@ -220,6 +228,7 @@ class HandTracker:
             timings['separation'] = time.perf_counter() - t0
             theta, posed = separated.theta, separated.posed
             iterations += separated.iterations
+            statuses += separated.statuses
         else:
             posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
@@ -230,7 +239,7 @@ class HandTracker:
                        if hasattr(c, 'labels'))
         costs = problem.costs(theta, correspondences)
         timings['fit'] = time.perf_counter() - begin
-        return Fit(theta, posed, views, iterations, costs, labels, timings)
+        return Fit(theta, posed, views, iterations, costs, labels, timings, tuple(statuses))
 
     def accept(self, fit: Fit) -> None:
         """Make ``fit`` the previous frame of the next fit (the temporal history grows)."""
