@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.features import CameraFeatures
 
@@ -12,7 +12,7 @@ from hand_tracker_ros.vision.features import CameraFeatures
 class CameraObservation:
     """One camera's calibration, image features and fingertip detections for one frame."""
 
-    camera: PinholeCamera
+    camera: Camera
     features: CameraFeatures
     tips: SalientDetections
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.render.contours import ContourConfig, ContourPoints, MeshEdges, contour_points
 from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, render
 from hand_tracker_ros.model.hand import PosedHand
@@ -19,13 +19,13 @@ from numpy.typing import ArrayLike
 class ModelView:
     """The posed model in one camera."""
 
-    camera: PinholeCamera
+    camera: Camera
     raster: RenderResult
     contours: ContourPoints
 
 
 def model_views(posed: PosedHand, faces: ArrayLike, edges: MeshEdges,
-                cameras: Sequence[PinholeCamera], *,
+                cameras: Sequence[Camera], *,
                 render_config: RenderConfig = RenderConfig(),
                 contour_config: ContourConfig = ContourConfig()) -> tuple[ModelView, ...]:
     """Render ``posed.vertices_m`` into every camera and extract its contour points."""

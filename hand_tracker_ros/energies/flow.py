@@ -43,7 +43,7 @@ from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.vision.flow import FlowField
 from hand_tracker_ros.render.rasterizer import RenderResult
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 
 NAME = 'flow'
 
@@ -170,7 +170,7 @@ class FlowEnergy:
                 blocks.append(block)
         return FlowCorrespondences(tuple(blocks))
 
-    def _camera_targets(self, camera: PinholeCamera, flow: FlowField,
+    def _camera_targets(self, camera: Camera, flow: FlowField,
                         prev_raster: RenderResult,
                         uv_now_px: FloatArray) -> ImageTargets:
         """Targets of one camera: visible at t-1, valid flow, subsampled, outliers removed."""

@@ -48,7 +48,7 @@ from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, Int32A
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
 from hand_tracker_ros.errors import ShapeError
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 
 # Barycentric slack so pixel centres exactly on an edge stay inside despite rounding.
 _INSIDE_EPS = 1e-9
@@ -149,13 +149,13 @@ def _visible(uv: FloatArray, z: FloatArray, zbuf: Float32Array, near: float,
     return out
 
 
-def render(camera: PinholeCamera, vertices_world: ArrayLike, faces: ArrayLike,
+def render(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
            config: RenderConfig = RenderConfig()) -> RenderResult:
     """Rasterize a triangle mesh into one camera.
 
     Parameters
     ----------
-    camera : PinholeCamera
+    camera : Camera
         The view (with distortion).
     vertices_world : (V, 3) float64
         Mesh vertices in the world frame (m).

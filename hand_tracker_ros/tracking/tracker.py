@@ -26,7 +26,7 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.core.context import CollisionPairs
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
@@ -95,7 +95,7 @@ class Fit:
 class HandTracker:
     """Tracks one hand through a sequence of frame sets."""
 
-    def __init__(self, model: HandModel, cameras: Sequence[PinholeCamera],
+    def __init__(self, model: HandModel, cameras: Sequence[Camera],
                  config: TrackerConfig = TrackerConfig()) -> None:
         self.model = model
         self.cameras = tuple(cameras)
