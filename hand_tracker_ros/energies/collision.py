@@ -29,6 +29,8 @@ The Jacobian is consistent: ``dr/dv_m = (1 / u) drho/dv``.
 Jacobian: ``J_i = drho/dv (M, 3) . dv_i/dtheta + sum_k drho/dp_k . dp_k/dtheta``, chaining
 the analytic cone-field gradients with ``posed.vertices_jac`` for the intruding vertex and
 the receiver face's three vertices (origin, normal and radius all move with the face).
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -36,6 +36,8 @@ search only measures the offset along the normal; the tangential position of ``t
 pixel rounding, and penalising it would drag contour points along the edge (the aperture
 problem) and double the rows. Point-to-line also lets the contour slide along a straight
 edge as the pose changes, which is what the next round's re-matching assumes.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -27,6 +27,8 @@ uneven mesh, while the sphere-mesh hand's triangles are of similar size.
 No previous frame, or no flow in a camera (first frame, reset, flow disabled), gives no rows
 from that camera; M = 0 overall then. Switching the term off after the first rounds of a
 frame (Ballan: 25 %) is the tracker's schedule, not this module's.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-r"""L, the joint-limit term of the sphere-mesh tracker (second seed, "Joint limits").
+r"""L, the joint-limit term of the sphere-mesh tracker (the second seed, "Joint limits": docs/references.md).
 
 .. math:: E_L = \sum_{a} I_a \, |a(c^t) - R_L \, a(c^0)|^2
 

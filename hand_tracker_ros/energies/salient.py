@@ -31,6 +31,8 @@ Residual of an assigned pair (fingertip vertex ``X_k``, detection ``y_j`` with s
 
 with the Jacobian ``sqrt(s_j) d pi_c / dX . dX_k / d theta`` (see :mod:`._projection`). The
 confidence weight ``sqrt(s_j)`` makes the cost of a pair proportional to the score.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-r"""Sil, the silhouette term in 3D (second seed, "Silhouette energy").
+r"""Sil, the silhouette term in 3D (the second seed: docs/references.md).
 
 Model points that project outside the observed hand silhouette are pulled, in 3D, onto the
 camera rays through their closest data-silhouette pixels:

@@ -19,6 +19,8 @@ prediction need not be reachable by any pose (bone lengths are not preserved by
 extrapolation); the prior then pulls towards the nearest pose in the least-squares sense.
 Residuals are in m, so the weight is relative to the px residuals of the image terms:
 ``weight = 1e4`` makes 1 cm on one keypoint cost like 1 px on one image point.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -28,6 +28,8 @@ there is nothing to separate. With ``d_ij = |c_i - c_j|`` and ``u = (c_i - c_j) 
 backstop, zero on the ground truth of the benchmark motions; see the test). The pairs of a
 round are those with ``r_i + r_j - margin - d_ij > -reach_m`` at its start, so a pair
 that comes into contact during the round's steps is already in the residual vector.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -5,6 +5,8 @@ pose of frame 0 (as Ballan et al. initialise manually) and frame 0 primes the fe
 1..T-1 are tracked and scored. When the tracker reports ``failure.reinit_after`` consecutive
 lost frames it is re-initialised from the ground truth of the current frame (an evaluation
 stand-in for re-detection); those lost frames count as failures.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -9,6 +9,8 @@ edge map (seeded per frame and camera, so runs are reproducible).
 the two stages over a sequence as the node graph does (features and detection of set k+1
 while set k is fitted). Observing never reads the tracker's state, so both give the same
 estimates; ``run`` only takes less wall time per frame.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

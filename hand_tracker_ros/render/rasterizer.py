@@ -31,7 +31,7 @@ neighbourhood of (u, v) (clipped to the image) has z-buffer depth >= z_i - ``vis
 on the silhouette, whose own pixel may show background or a neighbouring face.
 
 The kernels are numba ``@njit(cache=True, nogil=True)``: a compiled z-buffer is 10-40x faster
-than numpy/OpenCV/embree alternatives (perf-notes, section 3: 0.07-0.12 ms per 320x240
+than numpy/OpenCV/embree alternatives (bench/bench_render.py: 0.07-0.12 ms per 320x240
 view); ``cache=True`` stores the machine code on disk so the ~1 s compile is paid once, not
 by every process; ``nogil`` lets callers render cameras from several threads.
 """

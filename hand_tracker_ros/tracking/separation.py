@@ -21,6 +21,8 @@ collision terms win wherever they are active, and the anchor only chooses among 
 resolve them. Constraints of the frame's earlier rounds are kept (see
 :class:`~hand_tracker_ros.core.context.RoundContext`), so a round cannot slide a finger back
 into a contact an earlier one resolved.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

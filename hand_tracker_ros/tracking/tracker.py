@@ -13,6 +13,8 @@ apart.
 A fit changes nothing in the tracker: :meth:`HandTracker.accept` makes it the previous frame
 of the next one. Whether to accept it, and when to look for the hand elsewhere, is the
 tracking session's policy (:mod:`.session`).
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

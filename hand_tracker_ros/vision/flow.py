@@ -20,6 +20,8 @@ are full-image ones, and a flow computed in a region of interest carries the ful
 
 A DIS object is stateful and not re-entrant: each :class:`FlowEstimator` owns one, so use one
 estimator per camera/thread.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

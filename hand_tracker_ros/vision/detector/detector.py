@@ -19,6 +19,8 @@ Per image (:class:`.model.DetectorModel` runs the network with ONNX Runtime, no 
    by max pooling, as in CenterNet) with :math:`p \ge` ``min_score``;
 3. a peak at cell (i, j) is the detection :math:`(u, v) = 4\,(j + \delta_u, i + \delta_v)`
    with score :math:`p`; at most ``max_detections``, highest score first.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
