@@ -62,7 +62,8 @@ def _data(seeds: list[int], frames: int, workers: int) -> tuple[np.ndarray, np.n
 
 
 def fit_logistic(x: np.ndarray, y: np.ndarray, l2: float = 0.01) -> np.ndarray:
-    """``(b, w_1..w_S)`` minimising the logistic loss of labels ``y`` (1 good) plus ``l2 |w|^2``."""
+    """``(b, w_1..w_S)`` minimising the logistic loss of labels ``y`` (1 good) plus
+    ``l2 |w|^2``."""
     def loss(params: np.ndarray) -> float:
         z = params[0] + x @ params[1:]
         return float(np.sum(y * np.logaddexp(0, -z) + (1 - y) * np.logaddexp(0, z))

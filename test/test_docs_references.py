@@ -13,7 +13,8 @@ ELSEWHERE = re.compile(r'perf-notes|\bissue \d+|\bseed brief')
 
 
 def test_no_citation_of_documents_outside_the_repository() -> None:
-    offenders = [p.relative_to(ROOT).as_posix() for p in SOURCES if ELSEWHERE.search(p.read_text())]
+    offenders = [p.relative_to(ROOT).as_posix() for p in SOURCES
+                 if ELSEWHERE.search(p.read_text())]
     assert offenders == []
 
 

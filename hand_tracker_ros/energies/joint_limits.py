@@ -1,4 +1,6 @@
-r"""L, the joint-limit term of the sphere-mesh tracker (the second seed, "Joint limits": docs/references.md).
+r"""L, the joint-limit term of the sphere-mesh tracker (the second seed, "Joint limits").
+
+The second seed: docs/references.md.
 
 .. math:: E_L = \sum_{a} I_a \, |a(c^t) - R_L \, a(c^0)|^2
 
@@ -19,17 +21,18 @@ and its parent ``b`` (the palm) with respect to the rest pose, the seed's limiti
 
 .. math:: R_L = R_b \tilde R_{b \to a} R_{b \to a}^T R_b^T R_a,
 
-where ``R_{b->a} = R_b^T R_a`` is the local rotation and ``\tilde R_{b->a}`` the same
-rotation with its flexion and abduction clamped. We evaluate the equation as written; with our
-exact bone frames ``R_{b->a}^T R_b^T R_a = I``, so ``R_L = R_b \tilde R_{b->a}``: the parent's
-rotation times the clamped local rotation, applied to the rest bone vector ``a(c^0)``. The Euler angles are read in the bone's rest
-frame, where the model's joint is ``Q = Rz(-abd) Rx(flex)`` (abduction about the parent's
-axis, then flexion). The seed's x-z-y split ``Rx(tx) Rz(tz) Ry(ty)`` (x flexion, z
-abduction, y twist found last) is applied to ``Q^T = Rx(-flex) Rz(abd)``: it then recovers
-the model's angles exactly (``tx = -flex``, ``tz = abd``, twist 0). Applied to ``Q`` itself it
-would mix abduction into flexion (``tan tx = tan flex / cos abd``) and report violations for
-poses inside the table (thumb CMC at flex 50, abd 70 deg reads tx = 74 deg). Clamping keeps the
-twist, which is what the seed's "the twist component is discarded" amounts to.
+where ``R_{b->a} = R_b^T R_a`` is the local rotation and ``\tilde R_{b->a}`` the same rotation
+with its flexion and abduction clamped. We evaluate the equation as written; with our exact bone
+frames ``R_{b->a}^T R_b^T R_a = I``, so ``R_L = R_b \tilde R_{b->a}``: the parent's rotation
+times the clamped local rotation, applied to the rest bone vector ``a(c^0)``. The Euler angles
+are read in the bone's rest frame, where the model's joint is ``Q = Rz(-abd) Rx(flex)``
+(abduction about the parent's axis, then flexion). The seed's x-z-y split ``Rx(tx) Rz(tz)
+Ry(ty)`` (x flexion, z abduction, y twist found last) is applied to ``Q^T = Rx(-flex) Rz(abd)``:
+it then recovers the model's angles exactly (``tx = -flex``, ``tz = abd``, twist 0). Applied to
+``Q`` itself it would mix abduction into flexion (``tan tx = tan flex / cos abd``) and report
+violations for poses inside the table (thumb CMC at flex 50, abd 70 deg reads tx = 74 deg).
+Clamping keeps the twist, which is what the seed's "the twist component is discarded" amounts
+to.
 
 Upper joints (PIP, DIP, thumb MCP and IP). A plane is fitted to the finger's four joint
 locations (least squares: the right singular vector of the smallest singular value of the
@@ -57,10 +60,10 @@ against (palm for bases and plane limits, the parent finger bone for upper joint
 .. math:: r = W_p(\theta)^T a(c^t) - u,
 
 the seed's world-frame residual ``a(c^t) - R_L a(c^0)`` rotated by ``W_p^T``: the same
-norm at the start of the round, but it depends on the joint angles only. A target fixed in
-the world would resist a motion of the parent (e.g. a global rotation asked for by the image
-terms) within a round, and the world-frame residual gives the global rotation non-zero
-Jacobian columns along which its norm does not change, so LM drifts along them. With ``w_k`` the world axis of
+norm at the start of the round, but it depends on the joint angles only. A target fixed in the
+world would resist a motion of the parent (e.g. a global rotation asked for by the image terms)
+within a round, and the world-frame residual gives the global rotation non-zero Jacobian columns
+along which its norm does not change, so LM drifts along them. With ``w_k`` the world axis of
 every revolute DOF ``k`` that moves bone ``p``, ``dW_p / dtheta_k = [w_k]_x W_p`` gives
 
 .. math:: dr / d\theta_k = W_p^T (da / d\theta_k - w_k \times a),

@@ -234,7 +234,8 @@ class SilhouetteEnergy:
                             np.vstack(origins), np.vstack(dirs),
                             np.repeat(scales, [len(ids) for ids, _ in pairs]))
 
-    def residuals(self, posed: PosedHand, correspondences: SilhouetteCorrespondences) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: SilhouetteCorrespondences
+                  ) -> FloatArray:
         """Signed point-to-ray-plane distances ``r (M,)`` (m)."""
         c = correspondences
         diff = posed.vertices_m[c.vertex_ids] - c.ray_origins_m

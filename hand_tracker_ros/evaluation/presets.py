@@ -4,7 +4,8 @@ Every configuration tracks with the same pipeline and differs only in its energy
 solver. ``LO`` is the local optimizer: warm-started box-constrained Levenberg-Marquardt with the
 temporal prior T (a regulariser of the optimizer, present in every LO row, so the rows differ
 exactly by the data terms the paper ablates). Joint limits are hard bounds in every row; the
-full method adds the joint-limit energy L and the 3D silhouette term Sil of the second seed (docs/references.md).
+full method adds the joint-limit energy L and the 3D silhouette term Sil of the second seed
+(docs/references.md).
 
 =========  =========================================================
 name       terms

@@ -22,8 +22,8 @@ parameters when translations dominate ``A``.
 
 Why hand-written rather than ``scipy.optimize.least_squares``: scipy forces an explicit J and runs
 a QR of it every iteration (5-8x the cost of the normal equations for our 26 columns and 10k-50k
-rows, measured when it was written), has no per-iteration hook for frozen parameters, and its ``'lm'``
-method takes no bounds.
+rows, measured when it was written), has no per-iteration hook for frozen parameters, and its
+``'lm'`` method takes no bounds.
 
 A step whose mean absolute change of the angular parameters exceeds ``max_mean_step_rad``
 (Ballan's code: 30 degrees) is treated as divergent and rejected like a cost increase.

@@ -59,7 +59,8 @@ def ground_truth_state(sequence: SyntheticSequence, frame: SyntheticFrame,
                        world_frame: str) -> HandStateValues:
     """The ground-truth HandState of one frame."""
     return HandStateValues(
-        stamp_ns=frame.stamp_ns, frame_id=world_frame, status=int(TrackStatus.TRACKING), confidence=1.0,
+        stamp_ns=frame.stamp_ns, frame_id=world_frame, status=int(TrackStatus.TRACKING),
+        confidence=1.0,
         joint_names=PARAM_NAMES, joint_positions=frame.theta, keypoint_names=KEYPOINT_NAMES,
         keypoints_m=frame.keypoints_m, fingertips_m=frame.fingertips_m,
         shape_names=SHAPE_NAMES, shape_parameters=sequence.model.shape.to_vector(),

@@ -210,8 +210,8 @@ class TrackingSession:
                  timings: dict[str, float]) -> tuple[_Judged, int]:
         """The most confident of ``first`` and the fits from the recovery hypotheses.
 
-        Each hypothesis gets one short round (:data:`.schedule.QUICK`); only the most confident of them
-        is then fitted with the full schedule, and it replaces ``first`` if it is more
+        Each hypothesis gets one short round (:data:`.schedule.QUICK`); only the most confident
+        of them is then fitted with the full schedule, and it replaces ``first`` if it is more
         confident.
         """
         model = self.tracker.model

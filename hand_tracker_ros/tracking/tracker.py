@@ -154,7 +154,8 @@ class HandTracker:
         return result.x, result.n_iterations, problem, tuple(correspondences)
 
     def _solve_pso(self, theta: FloatArray, observations: FrameObservations,
-                   timings: dict[str, float]) -> tuple[FloatArray, int, Problem, tuple[object, ...]]:
+                   timings: dict[str, float]
+                   ) -> tuple[FloatArray, int, Problem, tuple[object, ...]]:
         """The HOPE baseline: PSO on the same objective, re-anchored every generation."""
         problem = Problem(self.model, self._terms)
         anchor_corrs: list[tuple[object, ...]] = []

@@ -26,7 +26,6 @@ References: docs/references.md.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Union
 
 import cv2
 import numpy as np
@@ -184,7 +183,7 @@ class SparseFlow:
         return out, valid
 
 
-FlowField = Union[DenseFlow, SparseFlow]
+FlowField = DenseFlow | SparseFlow
 
 
 class FlowEstimator:
