@@ -22,9 +22,9 @@ import numpy as np
 from scipy.optimize import minimize
 
 from hand_tracker_ros.config import from_mapping
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.evaluation.metrics import joint_errors_mm
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.evidence import SIGNALS

@@ -13,7 +13,6 @@ decoder of every path; this module only writes them (rgb8 ``Image`` or jpeg/png
 from __future__ import annotations
 
 import math
-
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -21,10 +20,10 @@ from typing import Any
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray, UInt8Array
+from hand_tracker_ros.bags.image_codec import compress_rgb
 from hand_tracker_ros.bags.typestore import typestore
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.errors import ImageFormatError, ShapeError
-from hand_tracker_ros.bags.image_codec import compress_rgb
 
 NS_PER_S = 1_000_000_000
 

@@ -30,7 +30,6 @@ from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
 
 
-
 def add_parser(sub: Any) -> None:
     """Register the verb."""
     parser = sub.add_parser('demo', help='run the demo on built-in data', description=__doc__)

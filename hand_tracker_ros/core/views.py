@@ -8,12 +8,17 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from hand_tracker_ros.geometry.camera_model import Camera
-from hand_tracker_ros.render.contours import (ContourConfig, ContourPoints, MeshEdges,
-                                              contour_points)
-from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, render
-from hand_tracker_ros.model.hand import PosedHand
 from numpy.typing import ArrayLike
+
+from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.model.hand import PosedHand
+from hand_tracker_ros.render.contours import (
+    ContourConfig,
+    ContourPoints,
+    MeshEdges,
+    contour_points,
+)
+from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, render
 
 
 @dataclass(frozen=True, eq=False)

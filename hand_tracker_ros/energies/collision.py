@@ -42,12 +42,11 @@ import numpy as np
 from hand_tracker_ros._typing import BoolArray, FloatArray, Int32Array, IntArray
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
-from hand_tracker_ros.core.context import CollisionPairs
+from hand_tracker_ros.core.context import CollisionPairs, RoundContext
 from hand_tracker_ros.energies import cone_field
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
 from hand_tracker_ros.model.hand import HandModel, PosedHand
-from hand_tracker_ros.core.context import RoundContext
 
 logger = logging.getLogger(__name__)
 

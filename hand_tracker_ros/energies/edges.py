@@ -49,14 +49,18 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
-                                                   image_linearize, image_residuals)
-from hand_tracker_ros.errors import ShapeError
+from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.core.observations import CameraObservation
 from hand_tracker_ros.core.views import ModelView
-from hand_tracker_ros.vision.edges import EdgeMap
+from hand_tracker_ros.energies._projection import (
+    ImageTargets,
+    block_vertices,
+    image_linearize,
+    image_residuals,
+)
+from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.model.hand import HandModel, PosedHand
-from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.vision.edges import EdgeMap
 
 _REFERENCE_WIDTH_PX = 640.0
 

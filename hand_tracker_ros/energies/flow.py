@@ -39,13 +39,17 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
-                                                   image_linearize, image_residuals)
-from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.core.context import RoundContext
-from hand_tracker_ros.vision.flow import FlowField
-from hand_tracker_ros.render.rasterizer import RenderResult
+from hand_tracker_ros.energies._projection import (
+    ImageTargets,
+    block_vertices,
+    image_linearize,
+    image_residuals,
+)
 from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.render.rasterizer import RenderResult
+from hand_tracker_ros.vision.flow import FlowField
 
 NAME = 'flow'
 

@@ -75,21 +75,26 @@ Limitation of bone-vector limits (the seed's): a bone vector has two degrees of 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.errors import ConfigError
-from hand_tracker_ros.geometry.rotations import (euler_xzy_from_matrix,
-                                                 matrix_from_axis_angle, rot_x, rot_y, rot_z)
+from hand_tracker_ros.geometry.rotations import (
+    euler_xzy_from_matrix,
+    matrix_from_axis_angle,
+    rot_x,
+    rot_y,
+    rot_z,
+)
 from hand_tracker_ros.model import kinematics
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import P
 from hand_tracker_ros.model.skeleton import FINGER_NAMES, RestSkeleton, joint_limits
-from hand_tracker_ros.model.hand import HandModel, PosedHand
-from hand_tracker_ros.core.context import RoundContext
 
 NAME = 'limits'
 

@@ -35,8 +35,7 @@ from hand_tracker_ros.energies.joint_limits import JointLimitsConfig, JointLimit
 from hand_tracker_ros.energies.salient import SalientConfig, SalientEnergy
 from hand_tracker_ros.energies.silhouette import SilhouetteConfig, SilhouetteEnergy
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy
-from hand_tracker_ros.energies.volume_collision import (VolumeCollisionConfig,
-                                                        VolumeCollisionEnergy)
+from hand_tracker_ros.energies.volume_collision import VolumeCollisionConfig, VolumeCollisionEnergy
 from hand_tracker_ros.model.hand import HandModel
 
 

@@ -45,12 +45,16 @@ from scipy.spatial.distance import cdist
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
-                                                   image_linearize, image_residuals)
-from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.core.context import RoundContext
-from hand_tracker_ros.render.rasterizer import RenderResult
 from hand_tracker_ros.core.observations import CameraObservation
+from hand_tracker_ros.energies._projection import (
+    ImageTargets,
+    block_vertices,
+    image_linearize,
+    image_residuals,
+)
+from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.render.rasterizer import RenderResult
 
 NAME = 'salient'
 

@@ -53,20 +53,20 @@ the mask and nothing pulls them out), 2.5 mm at 0.05, 2.1 at 0.1, 1.8 at 0.15-0.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.errors import ShapeError
+from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.core.observations import CameraObservation
 from hand_tracker_ros.core.views import ModelView
-from hand_tracker_ros.vision.features import CameraFeatures
+from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.model.hand import HandModel, PosedHand
-from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.vision.features import CameraFeatures
 
 _MIN_RAY_DISTANCE_M = 1e-9
 _HALF_PIXEL = 0.5

@@ -33,9 +33,9 @@ from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.model import kinematics
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import P
 from hand_tracker_ros.model.skeleton import KEYPOINT_BONES, RestSkeleton
-from hand_tracker_ros.model.hand import HandModel, PosedHand
 
 NAME = 'temporal'
 MODES = ('constant_velocity', 'damping')

@@ -40,9 +40,9 @@ import numpy as np
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
-from hand_tracker_ros.model.layout import P
-from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.model.layout import P
 
 NAME = 'volume'
 

@@ -16,15 +16,19 @@ import numpy as np
 from hand_tracker_ros._typing import BoolArray, FloatArray, Int32Array, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.model import kinematics
-from hand_tracker_ros.model.layout import Layout, P, PARAM_NAMES
+from hand_tracker_ros.model.layout import PARAM_NAMES, Layout, P
 from hand_tracker_ros.model.mesh import adjacent_parts, build_skinned_mesh
 from hand_tracker_ros.model.poses import NEUTRAL_RAD
 from hand_tracker_ros.model.shape import HandShape
-from hand_tracker_ros.model.skeleton import (BONE_NAMES, KEYPOINT_BONES, RestSkeleton,
-                                             joint_limits, rest_skeleton)
+from hand_tracker_ros.model.skeleton import (
+    BONE_NAMES,
+    KEYPOINT_BONES,
+    RestSkeleton,
+    joint_limits,
+    rest_skeleton,
+)
 from hand_tracker_ros.model.skinning import skin, skin_with_jacobian, vertex_normals
 from hand_tracker_ros.model.spheremesh import build_sphere_mesh
-
 
 
 def _readonly(*arrays: np.ndarray) -> None:

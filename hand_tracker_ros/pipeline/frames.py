@@ -14,17 +14,25 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues,
-                                           camera_info_from_msg, hand_state_from_msg)
+from hand_tracker_ros.bags.convert import (
+    CameraInfoValues,
+    HandStateValues,
+    camera_info_from_msg,
+    hand_state_from_msg,
+)
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.bags.reader import BagReader, check_bag_path
 from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.errors import BagFormatError, CalibrationError, HandTrackerError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig
-from hand_tracker_ros.synthetic.writer import (GT_STATE_TOPIC, compressed_image_topic,
-                                              image_topic, info_topic)
-from hand_tracker_ros.bags.image_codec import image_from_msg
+from hand_tracker_ros.synthetic.writer import (
+    GT_STATE_TOPIC,
+    compressed_image_topic,
+    image_topic,
+    info_topic,
+)
 
 LOG = logging.getLogger(__name__)
 

@@ -21,8 +21,8 @@ depth-discontinuity boundary, as an edge detector would see it on a rendered ima
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np

@@ -21,9 +21,9 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import Header
 
 from hand_tracker_ros._typing import FloatArray, UInt8Array
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.errors import CalibrationError, HandTrackerError
 from hand_tracker_ros.vision.detections import SalientDetections
-from hand_tracker_ros.bags.image_codec import image_from_msg
 
 _ENCODINGS = {(np.dtype(np.uint8), 1): 'mono8', (np.dtype(np.uint8), 3): 'rgb8',
               (np.dtype(np.float32), 1): '32FC1', (np.dtype(np.float32), 2): '32FC2'}

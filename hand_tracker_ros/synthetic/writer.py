@@ -18,9 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues, camera_info_msg,
-                                           compressed_image_msg, hand_state_msg, image_msg,
-                                           joint_state_msg)
+from hand_tracker_ros.bags.convert import (
+    CameraInfoValues,
+    HandStateValues,
+    camera_info_msg,
+    compressed_image_msg,
+    hand_state_msg,
+    image_msg,
+    joint_state_msg,
+)
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.model.layout import PARAM_NAMES

@@ -24,12 +24,12 @@ import scipy.ndimage
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.model.poses import RELAXED_DEG
 from hand_tracker_ros.tracking.evidence import silhouette_iou
-from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.tracking.schedule import QUICK, Round
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 

@@ -16,10 +16,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.core.energy import Term
-from hand_tracker_ros.optim.lm import ResidualFunction
-from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.energy import Term
+from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.optim.lm import ResidualFunction
 
 
 class Problem:

@@ -34,17 +34,15 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.core.context import CollisionPairs
+from hand_tracker_ros.core.context import CollisionPairs, RoundContext
+from hand_tracker_ros.core.energy import Term
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.energies.registry import SEPARATION_TERMS
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy, TemporalTarget
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
-from hand_tracker_ros.core.observations import FrameObservations
-from hand_tracker_ros.core.energy import Term
-from hand_tracker_ros.energies.registry import SEPARATION_TERMS
 from hand_tracker_ros.tracking.problem import Problem
-from hand_tracker_ros.core.context import RoundContext
-from hand_tracker_ros.model.hand import HandModel, PosedHand
-
 
 
 @dataclass(frozen=True)

@@ -31,12 +31,12 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
-from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
-from hand_tracker_ros.tracking.hypotheses import constant_velocity, turned_hypotheses
-from hand_tracker_ros.tracking.initialize import InitConfig, initialize
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.status import TrackStatus
+from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
+from hand_tracker_ros.tracking.hypotheses import constant_velocity, turned_hypotheses
+from hand_tracker_ros.tracking.initialize import InitConfig, initialize
 from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 

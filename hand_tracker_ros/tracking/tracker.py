@@ -27,21 +27,20 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
-from hand_tracker_ros.core.context import CollisionPairs
+from hand_tracker_ros.core.context import CollisionPairs, PreviousFrame, RoundContext
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.core.views import ModelView, model_views
+from hand_tracker_ros.energies import flow
+from hand_tracker_ros.energies.registry import TermsConfig, build_terms
 from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
 from hand_tracker_ros.optim.pso import PSOConfig, particle_swarm
 from hand_tracker_ros.render.contours import MeshEdges
-from hand_tracker_ros.energies.registry import TermsConfig, build_terms
-from hand_tracker_ros.energies import flow
-from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.tracking.problem import Problem
 from hand_tracker_ros.tracking.schedule import Round, ScheduleConfig, rounds
 from hand_tracker_ros.tracking.separation import SeparationConfig, Separator
-from hand_tracker_ros.core.views import ModelView, model_views
-from hand_tracker_ros.core.context import PreviousFrame, RoundContext
 
 
 @dataclass(frozen=True)

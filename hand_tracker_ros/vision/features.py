@@ -29,12 +29,11 @@ import numba
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray, UInt8Array
-from hand_tracker_ros.checks import check_finite, check_shape
+from hand_tracker_ros.checks import check_finite, check_rgb, check_shape
 from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.errors import ConfigError, ShapeError
 from hand_tracker_ros.vision.edges import EdgeConfig, EdgeMap, compute_edges
 from hand_tracker_ros.vision.flow import FlowConfig, FlowEstimator, FlowField
-from hand_tracker_ros.checks import check_rgb
 from hand_tracker_ros.vision.image import clip_roi, to_gray
 from hand_tracker_ros.vision.mask import ForegroundMasker, MaskConfig
 

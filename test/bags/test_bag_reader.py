@@ -8,10 +8,10 @@ import pytest
 import yaml
 
 from hand_tracker_ros.bags import convert
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.errors import BagFormatError
-from hand_tracker_ros.bags.image_codec import image_from_msg
 
 STORAGES = ['mcap', 'sqlite3']
 

@@ -6,8 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from hand_tracker_ros.energies._projection import (ImageTargets, image_linearize,
-                                                   image_residuals)
+from hand_tracker_ros.energies._projection import ImageTargets, image_linearize, image_residuals
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.transforms import look_at

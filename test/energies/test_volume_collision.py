@@ -5,15 +5,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.energies.collision import CollisionConfig, CollisionEnergy
-from hand_tracker_ros.energies.volume_collision import (VolumeCollisionConfig,
-                                                        VolumeCollisionEnergy, sample_balls)
-from hand_tracker_ros.geometry.triangle_pairs import (face_parts, intersecting_pairs,
-                                                      max_interpenetration_m)
+from hand_tracker_ros.energies.volume_collision import (
+    VolumeCollisionConfig,
+    VolumeCollisionEnergy,
+    sample_balls,
+)
+from hand_tracker_ros.geometry.triangle_pairs import (
+    face_parts,
+    intersecting_pairs,
+    max_interpenetration_m,
+)
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.optim.lm import LMConfig
 from hand_tracker_ros.synthetic.motions import trajectory
-from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.tracking.separation import SeparationConfig, Separator
 
 

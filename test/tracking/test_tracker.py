@@ -6,12 +6,12 @@ import pytest
 
 from hand_tracker_ros.config import from_mapping
 from hand_tracker_ros.core.frames import FrameSet
-from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
-from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.optim.lm import FitStatus
+from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.status import TrackStatus
+from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.schedule import ScheduleConfig, rounds
 from hand_tracker_ros.tracking.tracker import HandTracker, TrackerConfig
-from hand_tracker_ros.status import TrackStatus
 
 
 def _error_mm(result, frame) -> float:

@@ -31,10 +31,10 @@ import cv2
 import numpy as np
 
 from hand_tracker_ros._typing import Float32Array, FloatArray, UInt8Array
+from hand_tracker_ros.checks import check_rgb
 from hand_tracker_ros.config import param
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.model import STRIDE, DetectorModel
-from hand_tracker_ros.checks import check_rgb
 
 _NMS_KERNEL = np.ones((3, 3), np.uint8)
 
