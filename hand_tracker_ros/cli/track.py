@@ -17,7 +17,7 @@ from hand_tracker_ros.pipeline.frames import image_count, rig_file
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag, write_estimates
 from hand_tracker_ros.progress import progress
-from hand_tracker_ros.tracking.result import TrackStatus
+from hand_tracker_ros.status import TrackStatus
 
 
 def add_parser(sub: Any) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.bags.convert import HandStateValues
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
@@ -16,7 +17,6 @@ from hand_tracker_ros.pipeline.frames import camera_image_topic
 from hand_tracker_ros.render.rasterizer import render
 from hand_tracker_ros.tracking.overlay import draw_overlay
 from hand_tracker_ros.vision.image import to_gray
-from hand_tracker_ros.vision.image_codec import image_from_msg
 
 
 def error_plot(errors_mm: FloatArray, path: Path, title: str) -> None:

@@ -16,14 +16,15 @@ import numpy as np
 from hand_tracker_ros.bags.convert import HandStateValues, hand_state_msg, joint_state_msg
 from hand_tracker_ros.bags.recover import readable_bag
 from hand_tracker_ros.bags.writer import BagWriter
+from hand_tracker_ros.core.frames import FrameSet
+from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
-from hand_tracker_ros.pipeline.frames import (FrameSet, frame_sets, ground_truth, load_rig,
-                                              rig_file)
+from hand_tracker_ros.pipeline.frames import frame_sets, ground_truth, load_rig, rig_file
 from hand_tracker_ros.pipeline.offline import Detector, OfflinePipeline, PipelineConfig
-from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
+from hand_tracker_ros.status import TrackStatus
 
 LOG = logging.getLogger(__name__)
 JOINTS_TOPIC = '/hand/joint_states'

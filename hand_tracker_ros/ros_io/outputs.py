@@ -30,13 +30,14 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.sync.approximate import SyncStats
 from hand_tracker_ros.tracking.overlay import KEYPOINT_PARENTS
-from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 
 BONE_WIDTH_M = 0.003
 JOINT_DIAMETER_M = 0.008

@@ -10,8 +10,7 @@ import pytest
 import yaml
 from rosbags.highlevel import AnyReader
 
-from hand_tracker_ros.bags.typestore import (MSG_NAMES, find_msg_dir, msg_dir_candidates,
-                                             typestore)
+from hand_tracker_ros.bags.typestore import MSG_NAMES, find_msg_dir, msg_dir_candidates, typestore
 from hand_tracker_ros.errors import BagFormatError
 
 HAND_STATE = 'hand_tracker_msgs/msg/HandState'

@@ -15,8 +15,8 @@ import time
 import numpy as np
 import pytest
 
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.tracking.result import TrackStatus
 
 pytestmark = pytest.mark.ros
 PUBLISH_PERIOD_S = 0.5

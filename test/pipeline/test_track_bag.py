@@ -17,7 +17,6 @@ from hand_tracker_ros.cli.main import main
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.pipeline.track_bag import JOINTS_TOPIC, STATE_TOPIC
 
-
 SYNTH = ['--motion', 'pinch', '--frames', '6', '--cameras', '3', '--seed', '1']
 
 
