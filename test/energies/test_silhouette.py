@@ -280,6 +280,48 @@ def test_data_to_model_pulls_a_too_small_model_back(scene) -> None:
     assert errors[1] < 0.01
 
 
+def _data_rows(scene, theta: np.ndarray, observations: FrameObservations, views: bool
+               ) -> int:
+    ctx = _context(scene, theta, observations)
+    config = SilhouetteConfig(max_points_per_camera=10000, data_to_model_views=views)
+    model_rows = SilhouetteEnergy(SilhouetteConfig(max_points_per_camera=10000,
+                                                   data_to_model_weight=0.0))
+    return (SilhouetteEnergy(config).correspond(ctx).n_residuals
+            - model_rows.correspond(ctx).n_residuals)
+
+
+def test_data_to_model_rows_of_clutter_seen_by_one_camera_only_are_dropped(scene) -> None:
+    # A skin-coloured blob touching the hand in camera 0's mask alone: uncovered foreground
+    # there, whose rows would pull the model into it; camera 1 sees background behind it.
+    _, _, _, truth, obs = scene
+    features = obs.cameras[0].features
+    mask = features.mask.copy()
+    rows, cols = np.nonzero(mask)
+    centre = (int(cols.max()) + 6, int(rows.mean()))
+    cv2.circle(mask.view(np.uint8), centre, 10, 1, -1)
+    cluttered = FrameObservations(0, (CameraObservation(obs.cameras[0].camera,
+                                                        _with_mask(features, mask),
+                                                        SalientDetections.empty()),
+                                      obs.cameras[1]))
+    clutter_rows = (_data_rows(scene, truth, cluttered, views=False)
+                    - _data_rows(scene, truth, obs, views=False))
+    kept = (_data_rows(scene, truth, cluttered, views=True)
+            - _data_rows(scene, truth, obs, views=True))
+    assert clutter_rows > 20
+    # Rows of blob pixels next to the hand's own silhouette pass within the tolerance
+    # (12 of 48 here).
+    assert kept <= 0.3 * clutter_rows
+
+
+def test_data_to_model_rows_of_the_hand_are_kept_by_the_other_views(scene) -> None:
+    # The model moved off the data: the uncovered pixels are the hand, which both cameras see.
+    _, _, _, truth, obs = scene
+    theta = _perturbed(truth)
+    unchecked = _data_rows(scene, theta, obs, views=False)
+    assert unchecked > 50
+    assert _data_rows(scene, theta, obs, views=True) >= 0.9 * unchecked
+
+
 def test_true_pose_has_few_small_residuals(scene) -> None:
     model, *_, truth, _ = scene
     energy = SilhouetteEnergy.from_model(SilhouetteConfig(), model)
