@@ -6,6 +6,8 @@
 - :data:`RELAXED_DEG`: the rest pose of the synthetic motions, which the start search's
   hypotheses also take (``tracking/initialize.py``). A different, less flexed pose than the
   neutral one; merging the two would change the synthetic data and the search.
+- :data:`CURLED_DEG`: fingers half closed, the other finger start of the recovery
+  (``tracking/hypotheses.py``).
 """
 from __future__ import annotations
 
@@ -26,4 +28,11 @@ RELAXED_DEG: dict[str, float] = {
     'thumb_cmc_flex': 5.0, 'thumb_cmc_abd': 20.0, 'thumb_mcp_flex': 10.0, 'thumb_ip_flex': 10.0,
     **{f'{f}_{j}': v for f in FINGERS for j, v in (('mcp_flex', 10.0), ('pip_flex', 15.0),
                                                      ('dip_flex', 8.0))},
+}
+
+# Fingers half closed (deg), ours: halfway between RELAXED_DEG and a fist.
+CURLED_DEG: dict[str, float] = {
+    'thumb_cmc_flex': 10.0, 'thumb_cmc_abd': 30.0, 'thumb_mcp_flex': 30.0, 'thumb_ip_flex': 30.0,
+    **{f'{f}_{j}': v for f in FINGERS for j, v in (('mcp_flex', 45.0), ('pip_flex', 55.0),
+                                                     ('dip_flex', 30.0))},
 }

@@ -12,6 +12,10 @@
   (``R'^T = Rx(-rx) Rz(-rz) Ry(-ry)``). A palm flipped about the finger axis is the typical
   wrong basin of a silhouette fit: the outline barely changes while the thumb moves to the
   other side.
+- **Other fingers**: the same hand (global pose) with the fingers relaxed or half closed
+  (:mod:`hand_tracker_ros.model.poses`). A fit whose palm is right but whose fingers settled
+  in the wrong place (folded onto the palm, or into skin-coloured clutter beside it) keeps
+  most of the silhouette and rarely leaves that basin by itself.
 """
 from __future__ import annotations
 
@@ -21,6 +25,7 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.geometry.rotations import euler_xzy_from_matrix, rot_x, rot_y, rot_z
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import Layout
+from hand_tracker_ros.model.poses import CURLED_DEG, RELAXED_DEG
 
 _RY, _RZ, _RX = (Layout.index(n) for n in ('hand_ry', 'hand_rz', 'hand_rx'))
 
@@ -62,3 +67,20 @@ def turned(theta: FloatArray, turn: FloatArray, model: HandModel) -> FloatArray:
 def turned_hypotheses(theta: FloatArray, model: HandModel) -> dict[str, FloatArray]:
     """Every turn of :data:`TURNS` applied to ``theta``."""
     return {name: turned(theta, turn, model) for name, turn in TURNS.items()}
+
+
+# Finger starts tried by recovery: name -> joint angles (deg) of every finger DOF.
+FINGER_POSES: dict[str, dict[str, float]] = {'relaxed_fingers': RELAXED_DEG,
+                                              'curled_fingers': CURLED_DEG}
+
+
+def finger_hypotheses(theta: FloatArray, model: HandModel) -> dict[str, FloatArray]:
+    """``theta`` with its global pose and the fingers of every :data:`FINGER_POSES` entry."""
+    out = {}
+    for name, degrees in FINGER_POSES.items():
+        start = np.array(theta, np.float64)
+        start[Layout.thumb] = start[Layout.fingers] = 0.0
+        for joint, deg in degrees.items():
+            start[Layout.index(joint)] = np.deg2rad(deg)
+        out[name] = np.clip(start, model.lower, model.upper)
+    return out

@@ -35,7 +35,11 @@ from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
-from hand_tracker_ros.tracking.hypotheses import constant_velocity, turned_hypotheses
+from hand_tracker_ros.tracking.hypotheses import (
+    constant_velocity,
+    finger_hypotheses,
+    turned_hypotheses,
+)
 from hand_tracker_ros.tracking.initialize import InitConfig, initialize
 from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
@@ -217,6 +221,7 @@ class TrackingSession:
         model = self.tracker.model
         starts: dict[str, FloatArray] = {'last': self.tracker.history[-1]}
         starts.update(turned_hypotheses(first.fit.theta, model))
+        starts.update(finger_hypotheses(first.fit.theta, model))
         if self._trusted is not None:
             starts['trusted'] = self._trusted
             starts.update({f'trusted_{k}': v

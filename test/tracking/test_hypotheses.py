@@ -1,12 +1,16 @@
-"""Start hypotheses: constant-velocity prediction and hands turned about their own axes."""
+"""Start hypotheses: constant-velocity prediction, hands turned about their own axes, other
+fingers."""
 from __future__ import annotations
 
 import numpy as np
 
 from hand_tracker_ros.geometry.rotations import rot_y, rot_z
+from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.tracking.hypotheses import (
+    FINGER_POSES,
     TURNS,
     constant_velocity,
+    finger_hypotheses,
     hand_rotation,
     turned,
     turned_hypotheses,
@@ -55,3 +59,22 @@ def test_constant_velocity_extrapolates_and_stays_in_the_limits(hand_model) -> N
     past = far.copy()
     past[10] -= 0.5
     assert constant_velocity(np.stack([past, far]), hand_model)[10] == hand_model.upper[10]
+
+
+def test_finger_hypotheses_keep_the_palm_and_set_every_finger_joint(hand_model) -> None:
+    theta = _theta(hand_model)
+    starts = finger_hypotheses(theta, hand_model)
+    assert set(starts) == set(FINGER_POSES)
+    wrist = hand_model.pose(theta, jacobian=False).keypoints_m[0]
+    tips = []
+    for name, start in starts.items():
+        np.testing.assert_array_equal(start[:6], theta[:6])
+        expected = np.zeros(Layout.P - 6)
+        for joint, deg in FINGER_POSES[name].items():
+            expected[Layout.index(joint) - 6] = np.deg2rad(deg)
+        np.testing.assert_allclose(start[6:], np.clip(expected, hand_model.lower[6:],
+                                                      hand_model.upper[6:]))
+        posed = hand_model.pose(start, jacobian=False)
+        np.testing.assert_allclose(posed.keypoints_m[0], wrist, atol=1e-12)
+        tips.append(np.linalg.norm(posed.fingertips_m - wrist, axis=1))
+    assert np.all(tips[1][1:] < tips[0][1:])      # curled long fingers end nearer the wrist
