@@ -35,9 +35,12 @@ from hand_tracker_ros.launcher import (GRAPH_MODES, PROCESS_NODES, TRACKING_PROC
                                        ProcessGroup, ProcessSpec,
                                        player_waits_for_image_consumers, ros_list,
                                        tracker_mode_args)
+from hand_tracker_ros.topics import JOINT_STATES, STATE, TRACKER_OUTPUTS
 
 NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')   # in either mode
-RECORDED = ('/joint_states', '/hand_state', '/markers', '/diagnostics')
+RECORDED = tuple(t.absolute for t in TRACKER_OUTPUTS)
+# The graph is ready to play once the recorder listens to these (/tf may be switched off).
+READY = (JOINT_STATES.absolute, STATE.absolute)
 
 
 def graph_specs(params_file: str | None = None, *, rig: str | None = None,
@@ -132,7 +135,7 @@ def _play(playback: ProcessGroup, cameras: tuple[str, ...], args: argparse.Names
     """Steps 1, 2 and 4 of the module docstring, once the other nodes run."""
     from hand_tracker_ros.ros_io.graph import wait_for_tracking_graph  # rclpy only here
 
-    wait_for_tracking_graph(cameras, RECORDED, timeout_s=args.startup_timeout, mode=args.mode)
+    wait_for_tracking_graph(cameras, READY, timeout_s=args.startup_timeout, mode=args.mode)
     playback.start()
     playback.wait_any()
     print(f'[launch] player exited; stopping the graph in {args.drain:g} s', flush=True)

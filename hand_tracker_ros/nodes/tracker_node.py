@@ -8,11 +8,15 @@ hosts the features and salient_points nodes, data in memory) ``<cam>/<image_topi
 (``image_transport`` raw or compressed); with ``inputs:=features`` (the *distributed* graph)
 ``<cam>/edges``, ``<cam>/edge_orientation``, ``<cam>/mask``, ``<cam>/flow`` and
 ``<cam>/salient_points`` from features and salient_points processes; and
-``<cam>/camera_info``. Published: ``joint_states`` (JointState, only while TRACKING),
-``hand_state`` (HandState, every processed set, LOST included), ``markers`` (MarkerArray,
-DELETEALL when not tracking), ``/diagnostics`` (every ``diagnostics_period_s``) and, with
-``publish_overlay``, ``<cam>/overlay`` (rgb8). Output stamps are the input set's stamp,
-frame ids ``world_frame`` (overlays: ``<cam>`` + ``optical_frame_suffix``).
+``<cam>/camera_info``. Published (:mod:`hand_tracker_ros.topics`): ``hand/joint_states``
+(JointState, only while TRACKING), ``hand/state`` (HandState, every processed set, LOST
+included), ``hand/markers`` (MarkerArray, DELETEALL when not tracking), ``/tf`` (every URDF
+joint, only while TRACKING; ``publish_tf``), ``hand/robot_description`` (the URDF rooted at
+``world_frame``, once, transient local), ``/diagnostics`` (every ``diagnostics_period_s``)
+and, with ``publish_overlay``, ``<cam>/overlay`` (rgb8). The estimates are converted by
+:class:`hand_tracker_ros.ros_io.estimates.EstimateEncoder`, the one conversion the offline
+estimates bags use too. Output stamps are the input set's stamp, frame ids ``world_frame``
+(overlays: ``<cam>`` + ``optical_frame_suffix``).
 
 Data flow and threading
 -----------------------
@@ -50,13 +54,13 @@ from typing import Any
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from hand_tracker_msgs.msg import HandState, SalientPoints
+from hand_tracker_msgs.msg import SalientPoints
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, qos_profile_sensor_data
-from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
-from visualization_msgs.msg import MarkerArray
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
+from hand_tracker_ros import topics
 from hand_tracker_ros.errors import ConfigError, HandTrackerError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
@@ -64,8 +68,10 @@ from hand_tracker_ros.model.layout import P
 from hand_tracker_ros.node_config import TrackerNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io import outputs
+from hand_tracker_ros.ros_io.estimates import EstimateEncoder
 from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
+from hand_tracker_ros.ros_io.message_kit import RclpyKit, message_class
 from hand_tracker_ros.ros_io.observations import (PARTS, FrameAssembler,
                                                   frame_observations, part_value, stamp_ns_of)
 from hand_tracker_ros.ros_io.params import declare_config
@@ -167,11 +173,16 @@ class TrackerNode(Node):
 
     def _create_outputs(self) -> None:
         cfg = self.config
-        self._pub_joints = self.create_publisher(JointState, 'joint_states', 10)
-        self._pub_state = self.create_publisher(HandState, 'hand_state', 10)
-        self._pub_markers = self.create_publisher(MarkerArray, 'markers', 10)
-        self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self._pub_overlay = {c: self.create_publisher(Image, f'{c}/overlay', 2)
+        faces = self._model.faces if cfg.publish_mesh else None
+        self._encoder = EstimateEncoder(RclpyKit(), self._model, cfg.world_frame, faces)
+        self._pubs = {t: self.create_publisher(message_class(t.msgtype), t.name, 10)
+                      for t in topics.ESTIMATES if cfg.publish_tf or t != topics.TF}
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        description = topics.ROBOT_DESCRIPTION
+        self.create_publisher(message_class(description.msgtype), description.name,
+                              latched).publish(self._encoder.robot_description())
+        self._pub_diag = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS.name, 10)
+        self._pub_overlay = {c: self.create_publisher(Image, topics.overlay_topic(c), 2)
                              for c in cfg.cameras} if cfg.publish_overlay else {}
         # Wall-clock timers: frame waits and diagnostics must run even when sim time pauses.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -353,13 +364,9 @@ class TrackerNode(Node):
 
     def _publish(self, result: TrackResult, observations: FrameObservations,
                  processing_s: float) -> None:
-        frame_id = self.config.world_frame
-        if result.status == TrackStatus.TRACKING:
-            self._pub_joints.publish(outputs.joint_state_msg(result, frame_id))
-        faces = self._model.faces if self.config.publish_mesh else None
-        self._pub_markers.publish(outputs.marker_array_msg(result, faces, frame_id))
-        self._pub_state.publish(outputs.hand_state_msg(result, self._model, frame_id,
-                                                       processing_s))
+        for topic, msg in self._encoder.messages(result, processing_s):
+            if topic in self._pubs:
+                self._pubs[topic].publish(msg)
         if self._pub_overlay:
             self._publish_overlays(result, observations)
 

@@ -21,6 +21,7 @@ import numpy as np
 from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues, camera_info_msg,
                                            compressed_image_msg, hand_state_msg, image_msg,
                                            joint_state_msg)
+from hand_tracker_ros import topics
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.model.layout import PARAM_NAMES
@@ -29,8 +30,8 @@ from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.progress import progress
 from hand_tracker_ros.synthetic.sequence import SyntheticFrame, SyntheticSequence
 
-GT_JOINTS_TOPIC = '/hand/ground_truth/joint_states'
-GT_STATE_TOPIC = '/hand/ground_truth/state'
+GT_JOINTS_TOPIC = topics.GT_JOINT_STATES.absolute
+GT_STATE_TOPIC = topics.GT_STATE.absolute
 STATUS_TRACKING = 1
 IMAGE_FORMATS = ('raw', 'jpeg', 'png')
 
