@@ -52,6 +52,7 @@ class ReplayOutcome:
     errors_mm: FloatArray    # per scored frame, mean 3D joint error, in stamp order
     latencies_ms: FloatArray  # per HandState: input stamp to the recorder, wall-clock ms
     duration_s: float        # the bag's span of input sets, wall-clock s at the played rate
+    scored_stamps_ns: tuple[int, ...] = ()   # the stamps of ``errors_mm``
 
     @property
     def estimates_per_s(self) -> float:
@@ -170,7 +171,7 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
     scores = score_sequence(estimate, true, [states[s].status == 2 for s in common],
                             rig.cameras, depth, [states[s].processing_time_s for s in common])
     return ReplayOutcome(recorded, len(truth), n_joint_states, scores, states,
-                         joint_errors_mm(estimate, true), latencies, duration_s)
+                         joint_errors_mm(estimate, true), latencies, duration_s, tuple(common))
 
 
 def live_summary(outcome: ReplayOutcome) -> str:
