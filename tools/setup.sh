@@ -72,14 +72,7 @@ fi
 # --- 2. colcon build --------------------------------------------------------------------------
 # tf2_msgs (/tf) is not on PyPI: msg_defs/tf2_msgs is built unless an installed one (a full ROS
 # install on AMENT_PREFIX_PATH, or the venv) is found outside this workspace.
-tf2_msgs_installed=
-for prefix in "$VENV" ${AMENT_PREFIX_PATH:+${AMENT_PREFIX_PATH//:/ }}; do
-  case "$prefix" in "$WS"/*) continue ;; esac
-  if [ -e "$prefix/share/ament_index/resource_index/packages/tf2_msgs" ]; then
-    tf2_msgs_installed=$prefix
-    break
-  fi
-done
+tf2_msgs_installed=$(bash "$ROOT/tools/find_tf2_msgs.sh" "$VENV" "$WS")
 colcon_select=()
 if [ -n "$tf2_msgs_installed" ]; then
   log "using the installed tf2_msgs ($tf2_msgs_installed)"
