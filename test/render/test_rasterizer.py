@@ -5,7 +5,8 @@ import cv2
 import numpy as np
 import pytest
 import trimesh
-from conftest import occlusion_by_rays, random_parts_mesh, ray_cast, ray_cast_trimesh
+from conftest import (occlusion_by_rays, occlusion_by_rays_trimesh, random_parts_mesh, ray_cast,
+                      ray_cast_trimesh)
 from scipy.spatial.transform import Rotation
 
 from hand_tracker_ros.errors import ShapeError
@@ -40,8 +41,8 @@ def _assert_matches_ray_casting(cam: PinholeCamera, vertices: np.ndarray,
 
 @pytest.mark.parametrize('distorted', [False, True], ids=['pinhole', 'distorted'])
 def test_the_ray_casting_oracle_equals_trimesh(distorted):
-    """The exact ray-triangle oracle (conftest.ray_cast) against trimesh's ray caster, on
-    every pixel of a small view."""
+    """The exact ray-triangle oracles (conftest.ray_cast, occlusion_by_rays) against trimesh's
+    ray caster, on every pixel of a small view and every 16th vertex."""
     mesh = random_parts_mesh(np.random.default_rng(5))
     cam = _camera(1, distorted, width=48, height=36)
     depth, face = ray_cast(cam, mesh)
@@ -51,6 +52,11 @@ def test_the_ray_casting_oracle_equals_trimesh(distorted):
     hit = np.isfinite(depth_ref)
     np.testing.assert_allclose(depth[hit], depth_ref[hit], atol=1e-9)
     assert (face[hit] == face_ref[hit]).mean() >= 0.99      # ties on shared edges may differ
+    some = mesh.vertices[::16]
+    occlusion = occlusion_by_rays(cam, some, mesh)
+    assert (occlusion > 1e-3).sum() > 10                      # some are hidden
+    np.testing.assert_allclose(occlusion, occlusion_by_rays_trimesh(cam, some, mesh),
+                               atol=1e-9)
 
 
 @pytest.mark.parametrize('distorted', [False, True], ids=['pinhole', 'distorted'])
