@@ -1,12 +1,13 @@
-"""Tests of the z-buffer rasterizer against trimesh ray casting and analytic cases."""
+"""Tests of the z-buffer rasterizer against exact ray casting (ray_oracle) and analytic
+cases."""
 from __future__ import annotations
 
 import cv2
 import numpy as np
 import pytest
 import trimesh
-from conftest import (occlusion_by_rays, occlusion_by_rays_trimesh, random_parts_mesh, ray_cast,
-                      ray_cast_trimesh)
+from ray_oracle import (occlusion_by_rays, occlusion_by_rays_trimesh, random_parts_mesh,
+                        ray_cast, ray_cast_trimesh)
 from scipy.spatial.transform import Rotation
 
 from hand_tracker_ros.errors import ShapeError
