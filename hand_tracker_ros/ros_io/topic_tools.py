@@ -141,8 +141,8 @@ def hz(topic: str, out: TextIO, *, duration_s: float | None, wait_s: float,
     with _graph_node('hand_tracker_topics_hz') as (node, executor):
         cls = message_class(_topic_type(node, executor, topic, wait_s))
         qos = matching_qos(node.get_publishers_info_by_topic(absolute(topic)), 100)
-        node.create_subscription(cls, absolute(topic), lambda _: stamps.append(time.monotonic()), qos,
-                                 raw=True)
+        node.create_subscription(cls, absolute(topic),
+                                 lambda _: stamps.append(time.monotonic()), qos, raw=True)
         end = None if duration_s is None else time.monotonic() + duration_s
         while node.context.ok() and (end is None or time.monotonic() < end):
             _spin_until(node, executor, lambda: False, period_s)
