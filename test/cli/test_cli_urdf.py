@@ -6,7 +6,6 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from hand_tracker_ros.bags.convert import joint_state_msg
 from hand_tracker_ros.cli.main import main
@@ -37,21 +36,3 @@ def test_urdf_is_printed_with_another_root(capsys) -> None:
     assert main(['urdf', '--root-link', 'cam0_optical_frame']) == 0
     root = ET.fromstring(capsys.readouterr().out)
     assert root.find("joint[@name='hand_tx']/parent").get('link') == 'cam0_optical_frame'
-
-
-def test_a_shape_variant_scales_the_joint_origins(capsys) -> None:
-    def index_pip_y(args: list[str]) -> float:
-        assert main(['urdf', *args]) == 0
-        root = ET.fromstring(capsys.readouterr().out)
-        return float(root.find("joint[@name='index_pip_flex']/origin").get('xyz').split()[1])
-
-    default = index_pip_y([])
-    assert index_pip_y(['--shape', 'scale=1.2']) == pytest.approx(1.2 * default, rel=1e-5)
-    assert index_pip_y(['--shape', 'index_proximal_m=0.06']) == pytest.approx(0.06, rel=1e-5)
-
-
-def test_a_bad_shape_is_one_clear_error(capsys) -> None:
-    assert main(['urdf', '--shape', 'thumb_length=2']) == 2
-    assert "unknown shape parameter 'thumb_length'" in capsys.readouterr().err
-    assert main(['urdf', '--shape', 'scale=-1']) == 2
-    assert 'finite and > 0: scale' in capsys.readouterr().err
