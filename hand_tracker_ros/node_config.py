@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from hand_tracker_ros.bags.playback import PlaybackConfig
 from hand_tracker_ros.config import nested, param
-from hand_tracker_ros.tracking.roi import RoiConfig
+from hand_tracker_ros.tracking.attention import AttentionConfig
 from hand_tracker_ros.tracking.session import SessionConfig
 from hand_tracker_ros.tracking.tracker import TrackerConfig
 from hand_tracker_ros.vision.detector.detector import DetectorConfig
@@ -70,12 +70,7 @@ class TrackerNodeConfig:
     image_transport: str = param('raw', "with inputs 'images': 'raw' sensor_msgs/Image or "
                                  "'compressed' (jpeg, png) on <cam>/<image_topic>/compressed",
                                  choices=IMAGE_TRANSPORTS)
-    detect_every: int = param(2, "with inputs 'images': detect fingertips in every n-th "
-                              'set while the hand is tracked (in every set while it is not)',
-                              low=1, high=1000)
-    use_roi: bool = param(True, "with inputs 'images': while the hand is tracked, compute "
-                          'features only in a region of interest around the estimate')
-    roi: RoiConfig = nested(RoiConfig)
+    attention: AttentionConfig = nested(AttentionConfig)
     budget_ms: float = param(0.0, "time for one set's main fit: a correspondence round that "
                              'would end later is not started; 0 = the measured period '
                              'between input sets', unit='ms', low=0.0, high=10000.0)

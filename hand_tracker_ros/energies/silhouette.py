@@ -277,17 +277,25 @@ class SilhouetteEnergy:
 
 @numba.njit(cache=True, nogil=True)
 def _nearest(queries, points, max_sq):  # pragma: no cover - compiled
+    # Points sorted by u: a query scans only those within the reach in u. Among equally near
+    # points the lowest index wins, as in a scan of all of them in order.
+    order = np.argsort(points[:, 0], kind='mergesort')
+    su = points[order, 0]
+    reach = math.sqrt(max_sq) * (1.0 + 1e-9) + 1e-9     # a prefilter: a little wide is exact
     gap = np.full(queries.shape[0], np.inf)
     index = np.full(queries.shape[0], points.shape[0])
     for i in range(queries.shape[0]):
-        best = max_sq
-        for j in range(points.shape[0]):
+        best, pick = max_sq, points.shape[0]
+        lo = np.searchsorted(su, queries[i, 0] - reach, side='left')
+        hi = np.searchsorted(su, queries[i, 0] + reach, side='right')
+        for k in range(lo, hi):
+            j = order[k]
             du, dv = points[j, 0] - queries[i, 0], points[j, 1] - queries[i, 1]
             d2 = du * du + dv * dv
-            if d2 < best:
-                best, index[i] = d2, j
-        if index[i] < points.shape[0]:
-            gap[i] = math.sqrt(best)
+            if d2 < best or (d2 == best and j < pick and pick < points.shape[0]):
+                best, pick = d2, j
+        if pick < points.shape[0]:
+            index[i], gap[i] = pick, math.sqrt(best)
     return gap, index
 
 
@@ -295,7 +303,8 @@ def nearest_point(queries_px: FloatArray, points_px: FloatArray, max_distance_px
                   ) -> tuple[FloatArray, IntArray]:
     """Nearest of ``points_px`` (M, 2) to every query (N, 2), both float64 px.
 
-    Brute force in numba: at most a few hundred contour points against a few hundred
+    A scan in numba over the points sorted by ``u``, each query visiting those within
+    ``max_distance_px`` in ``u``: at most a few hundred contour points against a few hundred
     silhouette pixels per camera and round, where building a k-d tree cost more than the
     whole O(N M) scan (0.25 vs 0.05 ms at 320x240).
 

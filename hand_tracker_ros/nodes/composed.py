@@ -21,29 +21,25 @@ from hand_tracker_ros.nodes.tracker_node import TrackerNode
 from hand_tracker_ros.sync.approximate import SyncedSet
 from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
                                                     SalientDetections)
-from hand_tracker_ros.tracking.result import TrackStatus
-from hand_tracker_ros.tracking.roi import hand_rois
+from hand_tracker_ros.tracking.attention import Attention
 from hand_tracker_ros.vision.image_codec import image_from_msg
 
 
 class InProcessObserver:
     """A synchronized set of image messages -> the tracker's observations, in memory.
 
-    While the session tracks, features are computed in a region of interest around the last
-    estimate (``use_roi``, :mod:`hand_tracker_ros.tracking.roi`; the set is observed while
-    the previous one is fitted, so the margin covers two frames of motion) and fingertips
-    are detected in every ``detect_every``-th set. While it does not, both cover every
-    image in every set (the start and the recovery need them most). Measured without ROS
-    on random motion played at 30 Hz: at 4 x 640x480 the sets tracked went from 11 to 20 of
-    89 with the regions of interest and to 33 with detection in every second set; at
-    4 x 320x240 neither changed the sets tracked or the error.
+    What each set observes (a region of interest around a tracked hand, fingertips in every
+    few sets) is the session's attention policy (:mod:`hand_tracker_ros.tracking.attention`,
+    the ``attention.*`` parameters), as offline. Measured without ROS on random motion played
+    at 30 Hz: at 4 x 640x480 the sets tracked went from 11 to 20 of 89 with the regions of
+    interest and to 33 with detection in every second set; at 4 x 320x240 neither changed
+    the sets tracked or the error.
     """
 
     def __init__(self, tracker: TrackerNode, features: FeaturesNode,
                  salient: SalientPointsNode) -> None:
         self._tracker, self._features, self._salient = tracker, features, salient
-        self._every = tracker.config.detect_every
-        self._count = 0
+        self._attention = Attention(tracker.config.attention, tracker.cameras)
 
     def __call__(self, synced: SyncedSet) -> FrameObservations:
         cameras = self._tracker.cameras
@@ -51,13 +47,9 @@ class InProcessObserver:
         images = [image_from_msg(m, source=c.name, expected_size_px=(c.width, c.height))
                   for c, m in zip(cameras, msgs)]
         headers = [m.header for m in msgs]
-        posed = self._tracker.session.tracker.last_posed
-        tracking = self._tracker.session.status == TrackStatus.TRACKING and posed is not None
-        config = self._tracker.config
-        rois = hand_rois(posed, cameras, config.roi) if tracking and config.use_roi else None
-        features = self._features.process_set(images, headers, rois)
-        self._count = self._count + 1 if tracking else 0
-        if not tracking or self._count % self._every == 0:
+        plan = self._attention.plan(self._tracker.session)
+        features = self._features.process_set(images, headers, plan.rois_px)
+        if plan.detect:
             tips = self._salient.detect_set(images, headers)
         else:
             tips = [SalientDetections.empty()] * len(cameras)

@@ -175,14 +175,17 @@ def levenberg_marquardt(fun: ResidualFunction, x0: FloatArray, lower: FloatArray
         divergent = guard.any() and np.mean(np.abs(step[guard])) > config.max_mean_step_rad
         # The trial point comes with its Jacobian: nearly every step of a warm-started
         # tracker is accepted, and evaluating r alone first would pose the hand twice there.
-        r_new, J_new = (r, J) if divergent else fun(x + step, True)
+        # The last iteration's Jacobian would never be read.
+        last = iteration == config.max_iterations
+        r_new, J_new = (r, J) if divergent else fun(x + step, not last)
         n_eval += 0 if divergent else 1
         cost_new = 0.5 * float(r_new @ r_new) if np.all(np.isfinite(r_new)) else np.inf
         rho = (cost - cost_new) / predicted if predicted > 0 and not divergent else -1.0
         if rho > 0:
             x = x + step
             r, J = r_new, J_new
-            A, g = J.T @ J, J.T @ r
+            if not last:
+                A, g = J.T @ J, J.T @ r
             converged = (cost - cost_new) <= config.ftol * cost
             cost = cost_new
             mu *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)

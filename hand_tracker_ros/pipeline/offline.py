@@ -7,8 +7,10 @@ edge map (seeded per frame and camera, so runs are reproducible).
 
 :meth:`OfflinePipeline.step` observes and fits one set; :meth:`OfflinePipeline.run` overlaps
 the two stages over a sequence as the node graph does (features and detection of set k+1
-while set k is fitted). Observing never reads the tracker's state, so both give the same
-estimates; ``run`` only takes less wall time per frame.
+while set k is fitted). What each set observes is planned by :mod:`..tracking.attention`
+from the session as it was before the previous set's fit (the whole images, or a region of
+interest around a tracked hand and a detection every few sets), in both, so both give the
+same estimates; ``run`` only takes less wall time per frame.
 """
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.synthetic.edge_noise import EdgeNoiseConfig, add_edge_noise
+from hand_tracker_ros.tracking.attention import Attention, AttentionConfig, ObservationPlan
 from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
                                                     SalientDetections)
 from hand_tracker_ros.tracking.result import TrackResult
@@ -49,6 +52,7 @@ class PipelineConfig:
                                'detector')
     tracker: TrackerConfig = nested(TrackerConfig)
     session: SessionConfig = nested(SessionConfig)
+    attention: AttentionConfig = nested(AttentionConfig)
     auto_initialize: bool = param(True, 'find the hand from the observations on the first frame '
                                   'and after session.failure.reinit_after lost frames')
     edge_noise: EdgeNoiseConfig = nested(EdgeNoiseConfig)
@@ -71,6 +75,8 @@ class OfflinePipeline:
         self.tracker = HandTracker(model, rig.cameras, config.tracker)
         self.session = TrackingSession(self.tracker, config.session,
                                        search=config.auto_initialize)
+        self._attention = Attention(config.attention, rig.cameras)
+        self._next_plan: ObservationPlan | None = None
         self._features = MultiCameraFeatures(rig.names, config.features)
         if detector is None and config.use_detector:
             detector = FingertipDetector.load(config=config.detector).detect
@@ -94,14 +100,18 @@ class OfflinePipeline:
         edge_map = edge_map_from(edges, orientation, offset_uv_px=features.edges.offset_uv_px)
         return dataclasses.replace(features, edges=edge_map)
 
-    def observe(self, frames: FrameSet) -> tuple[FrameObservations, dict[str, float]]:
-        """Features and detections of one frame set, with their wall times (s)."""
+    def observe(self, frames: FrameSet, plan: ObservationPlan | None = None
+                ) -> tuple[FrameObservations, dict[str, float]]:
+        """Features and detections of one frame set, with their wall times (s); ``plan``
+        (default: everything) limits them."""
+        plan = ObservationPlan.everything() if plan is None else plan
         start = time.perf_counter()
-        features = self._features.process(frames.images, frames.stamp_ns)
+        features = self._features.process(frames.images, frames.stamp_ns, rois_px=plan.rois_px)
         if self.config.edge_noise.enabled:
             features = tuple(self._noisy(f, c) for c, f in enumerate(features))
         mid = time.perf_counter()
-        tips = (list(self._detection_pool.map(self._detector, frames.images)) if self._detector
+        tips = (list(self._detection_pool.map(self._detector, frames.images))
+                if self._detector and plan.detect
                 else [SalientDetections.empty()] * len(frames.images))
         end = time.perf_counter()
         cameras = tuple(CameraObservation(cam, feat, tip)
@@ -117,7 +127,10 @@ class OfflinePipeline:
         ``auto_initialize``, the search for the hand; otherwise it must have been reset to a
         pose (``pipeline.session.reset``).
         """
-        return self._fit(*self.observe(frames))
+        plan = self._next_plan or self._attention.plan(self.session)
+        observed = self.observe(frames, plan)
+        self._next_plan = self._attention.plan(self.session)   # as run() plans the next set
+        return self._fit(*observed)
 
     def run(self, frame_sets: Iterable[FrameSet],
             before_fit: Callable[[FrameSet], None] | None = None) -> Iterator[TrackResult]:
@@ -131,7 +144,8 @@ class OfflinePipeline:
         sets = iter(frame_sets)
 
         def observe_next() -> list[tuple[FrameSet, Future]]:
-            return [(frames, self._observer.submit(self.observe, frames))
+            return [(frames, self._observer.submit(self.observe, frames,
+                                                   self._attention.plan(self.session)))
                     for frames in itertools.islice(sets, 1)]
 
         ahead = observe_next()

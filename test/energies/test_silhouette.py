@@ -163,6 +163,21 @@ def test_nearest_point_matches_a_kd_tree() -> None:
     assert np.isinf(gap).all() and (index == 0).all()
 
 
+def test_nearest_point_breaks_ties_by_the_lowest_index_like_a_full_scan() -> None:
+    # Points and queries on a pixel grid: many are equally near (and some exactly at the reach).
+    rng = np.random.default_rng(8)
+    points = rng.integers(0, 30, (200, 2)).astype(np.float64)
+    queries = rng.integers(-5, 35, (300, 2)).astype(np.float64)
+    gap, index = nearest_point(queries, points, 3.0)
+    d2 = ((queries[:, None, :] - points[None, :, :]) ** 2).sum(axis=2)
+    d2[d2 >= 9.0] = np.inf                      # strictly within the reach
+    hit = np.isfinite(d2).any(axis=1)
+    assert hit.any() and not hit.all()
+    np.testing.assert_array_equal(index[hit], np.argmin(d2[hit], axis=1))   # first minimum
+    np.testing.assert_array_equal(index[~hit], len(points))
+    np.testing.assert_array_equal(gap[hit], np.sqrt(d2[hit].min(axis=1)))
+
+
 def test_jacobian_matches_central_differences(scene) -> None:
     model, *_, truth, _ = scene
     theta = _perturbed(truth) + np.random.default_rng(2).normal(0.0, 0.02, truth.size)
