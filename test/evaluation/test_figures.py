@@ -64,3 +64,21 @@ def test_overlay_grid_of_a_bag(tmp_path: Path, hand_model) -> None:
     assert row_caption(1, 1 / 30, truth[stamps[1]], 1.25) == \
         'frame 1  t=0.03 s  TRACKING  error 1.2 mm'
     assert row_caption(2, 0.0, truth[stamps[2]], None).endswith('TRACKING')
+
+
+def test_ablation_error_plot_marks_each_configurations_lost_frames() -> None:
+    from types import SimpleNamespace
+
+    from hand_tracker_ros.evaluation.report import error_figure
+
+    errors = np.array([1.0, 2.0, 30.0, 3.0])
+    runs = [SimpleNamespace(label=label, motion='grasp', errors_mm=errors + k,
+                            lost=np.array([False, False, True, k == 1]))
+            for k, label in enumerate(('full', 'LO+E'))]
+    fig = error_figure(runs)
+    ax = fig.axes[0]
+    assert ax.get_legend() is not None
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == ['full', 'LO+E', 'reported LOST', 'failure threshold (15 mm)']
+    crosses = [line for line in ax.get_lines() if line.get_marker() == 'x']
+    assert [line.get_xdata().tolist() for line in crosses] == [[3], [3, 4]]
