@@ -1,11 +1,14 @@
 """ament_python package: console scripts land in lib/hand_tracker_ros so `ros2 run` finds them."""
+import runpy
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
 PACKAGE = 'hand_tracker_ros'
 
-NODES = ('tracker', 'features', 'salient_points', 'player', 'recorder')
+# The node list has one home; setup.py runs before the package is importable.
+NODES = runpy.run_path(str(Path(__file__).resolve().parent / PACKAGE / 'graph_nodes.py'))['NODES']
 
 setup(
     name=PACKAGE,

@@ -1,7 +1,7 @@
 """Benchmark: forward kinematics, LBS, and LBS + vertex Jacobian of the hand model.
 
 Prints median / min / max milliseconds per call over repeated batches after warm-up.
-Target (issue 3): skinning with Jacobian, including FK, <= 2 ms.
+Target: skinning with Jacobian, including FK, <= 2 ms.
 Run: ``python bench/bench_skinning.py``.
 """
 from __future__ import annotations

@@ -18,8 +18,8 @@ from collections import defaultdict
 import numpy as np
 
 from hand_tracker_ros.config import from_mapping
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 

@@ -22,9 +22,9 @@ import numpy as np
 from scipy.optimize import minimize
 
 from hand_tracker_ros.config import from_mapping
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.evaluation.metrics import joint_errors_mm
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.evidence import SIGNALS
@@ -62,7 +62,8 @@ def _data(seeds: list[int], frames: int, workers: int) -> tuple[np.ndarray, np.n
 
 
 def fit_logistic(x: np.ndarray, y: np.ndarray, l2: float = 0.01) -> np.ndarray:
-    """``(b, w_1..w_S)`` minimising the logistic loss of labels ``y`` (1 good) plus ``l2 |w|^2``."""
+    """``(b, w_1..w_S)`` minimising the logistic loss of labels ``y`` (1 good) plus
+    ``l2 |w|^2``."""
     def loss(params: np.ndarray) -> float:
         z = params[0] + x @ params[1:]
         return float(np.sum(y * np.logaddexp(0, -z) + (1 - y) * np.logaddexp(0, z))

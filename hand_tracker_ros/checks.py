@@ -5,7 +5,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hand_tracker_ros.errors import ShapeError
+from hand_tracker_ros.errors import ImageFormatError, ShapeError
 
 
 def _shape_text(shape: Sequence[int | None]) -> str:
@@ -31,3 +31,50 @@ def check_finite(name: str, array: np.ndarray) -> None:
         bad = int(np.size(array) - np.count_nonzero(np.isfinite(array)))
         msg = f'`{name}` holds {bad} non-finite values'
         raise ShapeError(msg)
+
+
+def check_image_size(camera_name: str, width: int, height: int,
+                     expected_size_px: tuple[int, int] | None) -> None:
+    """Raise :class:`ImageFormatError` if the image size contradicts ``expected_size_px``.
+
+    Parameters
+    ----------
+    camera_name : str
+        Used in the message.
+    width, height : int
+        Image size in px.
+    expected_size_px : (int, int) or None
+        ``(width, height)`` from the camera calibration (camera_info); None skips the check.
+    """
+    if expected_size_px is None:
+        return
+    exp_w, exp_h = expected_size_px
+    if (width, height) != (exp_w, exp_h):
+        msg = (f'{camera_name}: image is {width}x{height} but camera_info says '
+               f'{exp_w}x{exp_h}')
+        raise ImageFormatError(msg)
+
+
+def check_rgb(name: str, image_rgb: np.ndarray,
+              size_px: Sequence[int] | None = None) -> None:
+    """Raise :class:`ImageFormatError` unless ``image_rgb`` is an ``(H, W, 3) uint8`` array.
+
+    Parameters
+    ----------
+    name : str
+        Argument or camera name used in the message.
+    image_rgb : ndarray
+        Candidate image.
+    size_px : (int, int), optional
+        Required ``(width, height)``.
+    """
+    if not isinstance(image_rgb, np.ndarray):
+        msg = f'{name}: expected an (H, W, 3) uint8 array, got {type(image_rgb).__name__}'
+        raise ImageFormatError(msg)
+    if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
+        msg = (f'{name}: expected an (H, W, 3) uint8 RGB image, got shape '
+               f'{image_rgb.shape} dtype {image_rgb.dtype}')
+        raise ImageFormatError(msg)
+    if size_px is not None:
+        check_image_size(name, image_rgb.shape[1], image_rgb.shape[0],
+                         (int(size_px[0]), int(size_px[1])))

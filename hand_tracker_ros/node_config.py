@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 from hand_tracker_ros.bags.playback import PlaybackConfig
 from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.graph_nodes import NODES
+from hand_tracker_ros.model.poses import NEUTRAL_THETA
 from hand_tracker_ros.tracking.attention import AttentionConfig
 from hand_tracker_ros.tracking.session import SessionConfig
 from hand_tracker_ros.tracking.tracker import TrackerConfig
@@ -46,11 +48,8 @@ class SalientPointsNodeConfig:
     detector: DetectorConfig = nested(DetectorConfig)
 
 
-# The model's neutral pose (``HandModel.neutral_theta()``, PARAM_NAMES order) with the wrist at
-# the world origin, spelled out because building the model at import time costs seconds; a
-# test checks that it equals ``neutral_theta()``.
-NEUTRAL_POSE = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.15, 0.25, 0.15, 0.15,
-                *(0.2, 0.0, 0.25, 0.15) * 4)
+# The model's neutral pose, wrist at the world origin (one definition: model/poses.py).
+NEUTRAL_POSE = NEUTRAL_THETA
 
 
 @dataclass(frozen=True)
@@ -150,3 +149,12 @@ class RecorderNodeConfig:
     discovery_period_s: float = param(0.1, 'period of the graph poll that finds the types '
                                       'of topics not yet recorded', unit='s', low=0.01,
                                       high=10.0)
+
+
+def _config_class(node: str) -> type:
+    """``features`` -> ``FeaturesNodeConfig``: every node's config class by its name."""
+    return globals()[''.join(part.title() for part in node.split('_')) + 'NodeConfig']
+
+
+#: Config class of every node of :data:`~hand_tracker_ros.graph_nodes.NODES`, in its order.
+NODE_CONFIGS: dict[str, type] = {node: _config_class(node) for node in NODES}

@@ -11,13 +11,13 @@ the nodes.
 import os
 
 from ament_index_python.packages import get_package_share_directory
-from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
 from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration, PythonExpression
 from launch_ros.actions import Node
 
-NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')
+from hand_tracker_ros.graph_nodes import NODES
+from launch import LaunchDescription
 
 
 def generate_launch_description():

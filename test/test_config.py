@@ -1,7 +1,9 @@
 """Config dataclasses: mapping round trips, validation messages, shipped YAML files."""
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 import yaml
@@ -11,6 +13,7 @@ from hand_tracker_ros.ament import share_file
 from hand_tracker_ros.cli.params import default_parameters_yaml
 from hand_tracker_ros.config import describe, flatten, from_mapping, nested, param
 from hand_tracker_ros.errors import ConfigError
+from hand_tracker_ros.graph_nodes import NODES
 
 
 @dataclass(frozen=True)
@@ -55,15 +58,21 @@ def test_describe_carries_docs_and_ranges() -> None:
     assert meta['weight']['doc'] == 'term weight'
 
 
-@pytest.mark.parametrize(('node', 'cls'), [
-    ('tracker', node_config.TrackerNodeConfig),
-    ('features', node_config.FeaturesNodeConfig),
-    ('salient_points', node_config.SalientPointsNodeConfig),
-    ('player', node_config.PlayerNodeConfig),
-    ('recorder', node_config.RecorderNodeConfig),
-])
+@pytest.mark.parametrize(('node', 'cls'), node_config.NODE_CONFIGS.items())
 def test_shipped_parameter_files_match_the_config_classes(node: str, cls: type) -> None:
     text = share_file(f'config/{node}.yaml').read_text()
     assert text == default_parameters_yaml(node)
     params = yaml.safe_load(text)[node]['ros__parameters']
     assert from_mapping(cls, params) == cls()
+
+
+def test_readme_node_table_lists_the_graph_nodes() -> None:
+    readme = (Path(__file__).resolve().parents[1] / 'README.md').read_text()
+    table = readme.split('| executable | subscribes |', 1)[1].split('\n\n', 1)[0]
+    assert tuple(re.findall(r'^\| `(\w+)` \|', table, re.M)) == NODES
+
+
+def test_every_node_has_an_entry_point_and_a_parameter_file() -> None:
+    root = Path(__file__).resolve().parents[1]
+    assert all((root / 'hand_tracker_ros' / 'nodes' / f'{n}_node.py').is_file() for n in NODES)
+    assert all((root / 'config' / f'{n}.yaml').is_file() for n in NODES)

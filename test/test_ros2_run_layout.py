@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from hand_tracker_ros.ament import executable, share_file
+from hand_tracker_ros.graph_nodes import NODES
 
-EXECUTABLES = ('tracker', 'features', 'salient_points', 'player', 'recorder', 'hand-tracker')
+EXECUTABLES = (*NODES, 'hand-tracker')
 
 
 @pytest.mark.parametrize('name', EXECUTABLES)

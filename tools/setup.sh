@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # One idempotent setup step for a fresh machine (used by both README commands):
 #   1. a project venv (.venv, or $HT_VENV) with the pinned ROS 2 Kilted wheels, the interface
-#      build set, colcon and the project's libraries (requirements/*.txt);
+#      build set, colcon, the project's libraries and the lint/type/import checkers
+#      (requirements/*.txt);
 #   2. the CMake path fix for the ROS wheels (tools/fix_wheel_cmake.sh);
 #   3. `colcon build` of msg_defs/hand_tracker_msgs (ament_cmake), of msg_defs/tf2_msgs (only
 #      when no tf2_msgs is installed: PyPI has none) and of this repository's root package
@@ -47,7 +48,8 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 # --- 1. venv and pinned requirements --------------------------------------------------------------
-REQS=("$ROOT"/requirements/ros-runtime.txt "$ROOT"/requirements/ros-build.txt "$ROOT"/requirements/python.txt)
+REQS=("$ROOT"/requirements/ros-runtime.txt "$ROOT"/requirements/ros-build.txt "$ROOT"/requirements/python.txt
+      "$ROOT"/requirements/dev.txt)
 if [ "${HT_TRAIN:-0}" = 1 ]; then
   REQS+=("$ROOT"/requirements/train.txt)
 fi

@@ -6,14 +6,13 @@ readers accept any object with the same fields (e.g. a message decoded with a ba
 type store). Time is always ``stamp_ns: int`` (nanoseconds since the epoch of the clock):
 ``stamp_ns = sec * 10**9 + nanosec``.
 
-Images are decoded by :func:`hand_tracker_ros.vision.image_codec.image_from_msg`, the one
+Images are decoded by :func:`hand_tracker_ros.bags.image_codec.image_from_msg`, the one
 decoder of every path; this module only writes them (rgb8 ``Image`` or jpeg/png
 ``CompressedImage``).
 """
 from __future__ import annotations
 
 import math
-
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -21,10 +20,10 @@ from typing import Any
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray, UInt8Array
+from hand_tracker_ros.bags.image_codec import compress_rgb
 from hand_tracker_ros.bags.typestore import typestore
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.errors import ImageFormatError, ShapeError
-from hand_tracker_ros.vision.image_codec import compress_rgb
 
 NS_PER_S = 1_000_000_000
 
@@ -218,7 +217,7 @@ class HandStateValues:
     frame_id : str
         World frame of the estimate.
     status : int
-        0 initializing, 1 tracking, 2 lost (the message's ``STATUS_*`` constants).
+        A :class:`~hand_tracker_ros.status.TrackStatus` value (the message's ``STATUS_*``).
     confidence : float
         Probability in [0, 1] that the estimate is right.
     joint_names : tuple of str, length P

@@ -22,7 +22,7 @@ import os
 import sys
 from pathlib import Path
 
-from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from hand_tracker_ros.errors import BagFormatError

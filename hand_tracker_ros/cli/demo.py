@@ -25,13 +25,12 @@ import numpy as np
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.evaluation.figures import error_plot, overlay_grid
 from hand_tracker_ros.evaluation.replay import live_summary, replay
+from hand_tracker_ros.graph_nodes import NODES as GRAPH
 from hand_tracker_ros.launcher import GRAPH_MODES
 from hand_tracker_ros.pipeline.frames import load_rig
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
-from hand_tracker_ros.tracking.result import TrackStatus
-
-GRAPH = ('player', 'features', 'salient_points', 'tracker', 'recorder')
 
 
 def add_parser(sub: Any) -> None:

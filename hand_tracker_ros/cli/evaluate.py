@@ -5,6 +5,8 @@ benchmark (4 cameras, 320x240, 30 fps, structured edge noise on; grasp, tapping 
 motions of 150 frames) and writes ``ablation.md``, ``ablation.json`` and
 ``ablation_error.png``; then the full method under several LM schedules
 (``tradeoff.*``: error vs ms per frame).
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

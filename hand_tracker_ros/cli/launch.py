@@ -31,13 +31,18 @@ from typing import Any
 from hand_tracker_ros.ament import share_file
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.rig import CameraRig
-from hand_tracker_ros.launcher import (GRAPH_MODES, PROCESS_NODES, TRACKING_PROCESSES,
-                                       ProcessGroup, ProcessSpec,
-                                       player_waits_for_image_consumers, ros_list,
-                                       tracker_mode_args)
+from hand_tracker_ros.launcher import (
+    GRAPH_MODES,
+    PROCESS_NODES,
+    TRACKING_PROCESSES,
+    ProcessGroup,
+    ProcessSpec,
+    player_waits_for_image_consumers,
+    ros_list,
+    tracker_mode_args,
+)
 from hand_tracker_ros.topics import JOINT_STATES, STATE, TRACKER_OUTPUTS
 
-NODES = ('features', 'salient_points', 'tracker', 'player', 'recorder')   # in either mode
 RECORDED = tuple(t.absolute for t in TRACKER_OUTPUTS)
 # The graph is ready to play once the recorder listens to these (/tf may be switched off).
 READY = (JOINT_STATES.absolute, STATE.absolute)

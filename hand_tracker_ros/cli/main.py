@@ -10,9 +10,23 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from hand_tracker_ros.cli import (bag_info, demo, evaluate, launch, params, play, record,
-                                  replay_eval, robustness, synth, topics, track, train_detector,
-                                  urdf, warmup)
+from hand_tracker_ros.cli import (
+    bag_info,
+    demo,
+    evaluate,
+    launch,
+    params,
+    play,
+    record,
+    replay_eval,
+    robustness,
+    synth,
+    topics,
+    track,
+    train_detector,
+    urdf,
+    warmup,
+)
 from hand_tracker_ros.errors import HandTrackerError
 
 VERBS = (bag_info, demo, evaluate, launch, params, play, record, replay_eval, robustness, synth,

@@ -13,13 +13,7 @@ import yaml
 from hand_tracker_ros import node_config
 from hand_tracker_ros.config import flatten
 
-NODE_CONFIGS = {
-    'tracker': node_config.TrackerNodeConfig,
-    'features': node_config.FeaturesNodeConfig,
-    'salient_points': node_config.SalientPointsNodeConfig,
-    'player': node_config.PlayerNodeConfig,
-    'recorder': node_config.RecorderNodeConfig,
-}
+NODE_CONFIGS = node_config.NODE_CONFIGS
 
 
 def default_parameters_yaml(node: str) -> str:

@@ -19,7 +19,7 @@ from hand_tracker_ros.pipeline.offline import PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag
 from hand_tracker_ros.progress import progress
 from hand_tracker_ros.ros_io.estimates_bag import write_estimates
-from hand_tracker_ros.tracking.result import TrackStatus
+from hand_tracker_ros.status import TrackStatus
 
 
 def add_parser(sub: Any) -> None:

@@ -9,9 +9,11 @@ Shared by the image terms (edges, flow, salient points). A vertex ``X_i(theta)``
     \frac{\partial X_i}{\partial \theta}
     \qquad (2 \times 3)(3 \times P)
 
-with ``duv_dX`` as in :meth:`PinholeCamera.project_jacobian` (distortion included) and
-``dX/dtheta`` the rows ``posed.vertices_jac[ids]``; one numba pass per block projects,
-contracts with the normal and forms the rows without (N, 2, 3) or (N, 2, P) temporaries.
+with ``duv_dX`` from :meth:`Camera.project_jacobian` (distortion included) and
+``dX/dtheta`` the rows ``posed.vertices_jac[ids]``. For a :class:`PinholeCamera` one numba pass
+per block projects, contracts with the normal and forms the rows without (N, 2, 3) or
+(N, 2, P) temporaries; any other camera model goes through its ``project_jacobian`` and two
+contractions (the same rows, slower).
 A block of targets ``t_i`` (px) with square-root weights ``s_i`` gives either
 
 - point rows (``normals_px is None``): ``r = s_i (u_i - t_i)``, 2 rows per target (u then v);
@@ -25,7 +27,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numba
 import numpy as np
@@ -33,6 +34,8 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.geometry.camera import PinholeCamera, distort_point, pixel_jacobian
+from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.model.hand import PosedHand
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,7 +44,7 @@ class ImageTargets:
 
     Attributes
     ----------
-    camera : PinholeCamera
+    camera : Camera
     vertex_ids : (N,) int64
         Mesh vertex of each target (repeats allowed).
     targets_px : (N, 2) float64
@@ -52,7 +55,7 @@ class ImageTargets:
         Unit image normals for line rows; None for point rows.
     """
 
-    camera: PinholeCamera
+    camera: Camera
     vertex_ids: IntArray
     targets_px: FloatArray
     sqrt_weights: FloatArray
@@ -125,9 +128,11 @@ def _rows(vertices, vertices_jac, ids, R, t, intrinsics, dist8, targets, s, norm
     return r, J
 
 
-def _block_rows(posed: Any, block: ImageTargets, jacobian: bool
+def _block_rows(posed: PosedHand, block: ImageTargets, jacobian: bool
                 ) -> tuple[FloatArray, FloatArray | None]:
     camera = block.camera
+    if not isinstance(camera, PinholeCamera):
+        return _camera_rows(posed, block, camera, jacobian)
     line = block.normals_px is not None
     normals = block.normals_px if line else np.zeros((0, 2))
     jac = posed.vertices_jac if jacobian else np.zeros((0, 3, int(np.size(posed.theta))))
@@ -138,19 +143,39 @@ def _block_rows(posed: Any, block: ImageTargets, jacobian: bool
     return r, (J if jacobian else None)
 
 
+def _camera_rows(posed: PosedHand, block: ImageTargets, camera: Camera, jacobian: bool
+                 ) -> tuple[FloatArray, FloatArray | None]:
+    """The rows of :func:`_rows` for any :class:`Camera`, from its ``project_jacobian``."""
+    ids = block.vertex_ids
+    s = block.sqrt_weights
+    uv, _, duv_dX = camera.project_jacobian(posed.vertices_m[ids])
+    diff = uv - block.targets_px                                   # (N, 2) px
+    if block.normals_px is not None:                               # line rows, 1 per target
+        n = block.normals_px
+        r = s * np.einsum('nk,nk->n', n, diff)
+        g = s[:, None, None] * np.einsum('nk,nkc->nc', n, duv_dX)[:, None, :]   # (N, 1, 3)
+    else:                                                          # point rows, u then v
+        r = (s[:, None] * diff).ravel()
+        g = s[:, None, None] * duv_dX                              # (N, 2, 3)
+    if not jacobian:
+        return r, None
+    J = np.einsum('nrc,ncp->nrp', g, posed.vertices_jac[ids]).reshape(r.size, -1)
+    return r, J
+
+
 def block_vertices(blocks: Sequence[ImageTargets]) -> IntArray:
     """Vertex ids (K,) int64 the blocks' rows read (the ``Energy.jacobian_vertices`` of the
     image terms)."""
     return np.concatenate([np.zeros(0, np.int64)] + [b.vertex_ids for b in blocks])
 
 
-def image_residuals(posed: Any, blocks: Sequence[ImageTargets]) -> FloatArray:
+def image_residuals(posed: PosedHand, blocks: Sequence[ImageTargets]) -> FloatArray:
     """Stacked residuals ``r (M,)`` (px) of all blocks, in block order."""
     rows = [_block_rows(posed, b, False)[0] for b in blocks]
     return np.concatenate(rows) if rows else np.zeros(0)
 
 
-def image_linearize(posed: Any, blocks: Sequence[ImageTargets]
+def image_linearize(posed: PosedHand, blocks: Sequence[ImageTargets]
                     ) -> tuple[FloatArray, FloatArray]:
     """Stacked residuals ``r (M,)`` (px) and Jacobian ``J (M, P)`` (px per parameter unit)."""
     n_params = int(np.size(posed.theta))

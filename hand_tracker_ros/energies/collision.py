@@ -29,21 +29,24 @@ The Jacobian is consistent: ``dr/dv_m = (1 / u) drho/dv``.
 Jacobian: ``J_i = drho/dv (M, 3) . dv_i/dtheta + sum_k drho/dp_k . dp_k/dtheta``, chaining
 the analytic cone-field gradients with ``posed.vertices_jac`` for the intruding vertex and
 the receiver face's three vertices (origin, normal and radius all move with the face).
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, Int32Array, IntArray
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.context import CollisionPairs, RoundContext
 from hand_tracker_ros.energies import cone_field
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 
 logger = logging.getLogger(__name__)
 
@@ -62,30 +65,6 @@ class CollisionConfig:
                                 high=1.0)
     max_pairs: int = param(600, 'Maximum (vertex, receiver face) constraints, i.e. residuals, '
                            'per round (Ballan: 600)', low=1)
-
-
-@dataclass(frozen=True)
-class CollisionPairs:
-    """Constraints of one correspondence round.
-
-    Attributes
-    ----------
-    face_pairs : (K, 2) int64
-        Intersecting faces of non-adjacent parts found at the start of the round.
-    vertex_ids : (M,) int64
-        Intruding vertex of each constraint.
-    face_ids : (M,) int64
-        Receiver face of each constraint.
-    """
-
-    face_pairs: IntArray
-    vertex_ids: IntArray
-    face_ids: IntArray
-
-    @property
-    def n_residuals(self) -> int:
-        """Number of residuals ``M``."""
-        return int(self.vertex_ids.size)
 
 
 def _readonly(*arrays: np.ndarray) -> None:
@@ -127,7 +106,7 @@ class CollisionEnergy:
         _readonly(self.faces, self.face_part, self.adjacent_parts)
 
     @classmethod
-    def from_model(cls, config: CollisionConfig, model: Any) -> CollisionEnergy:
+    def from_model(cls, config: CollisionConfig, model: HandModel) -> CollisionEnergy:
         """Build from a ``HandModel`` (uses ``faces``, ``vertex_part``, ``adjacent_parts``)."""
         return cls(config, model.faces, model.vertex_part, model.adjacent_parts)
 
@@ -136,7 +115,7 @@ class CollisionEnergy:
         """Weight of the term's cost ``0.5 * weight * |r|^2``."""
         return self.config.weight
 
-    def correspond(self, context: Any) -> CollisionPairs:
+    def correspond(self, context: RoundContext) -> CollisionPairs:
         """Constraints for one round, from ``context.posed.vertices_m`` (V, 3) float64."""
         return self.pairs_at(context.posed.vertices_m, context.collisions)
 
@@ -182,7 +161,7 @@ class CollisionEnergy:
                                         vertices_m[self.faces[face_ids]] * scale)
         return cone_field.residual(geom, self.config.sigma)
 
-    def residuals(self, posed: Any, pairs: CollisionPairs) -> FloatArray:
+    def residuals(self, posed: PosedHand, pairs: CollisionPairs) -> FloatArray:
         """Residuals ``r (M,)`` float64 of ``posed.vertices_m`` for the round's constraints."""
         if pairs.n_residuals == 0:  # the common case; skips the cone geometry's dispatch
             return np.zeros(0)
@@ -192,7 +171,7 @@ class CollisionEnergy:
         """Vertex ids (K,) int64 the rows read: intruding vertices and receiving triangles."""
         return np.concatenate([pairs.vertex_ids, self.faces[pairs.face_ids].ravel()])
 
-    def linearize(self, posed: Any, pairs: CollisionPairs) -> tuple[FloatArray, FloatArray]:
+    def linearize(self, posed: PosedHand, pairs: CollisionPairs) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` and Jacobian ``dr/dtheta (M, P)`` using ``posed.vertices_jac``."""
         jac = posed.vertices_jac
         if jac is None:

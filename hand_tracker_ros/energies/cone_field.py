@@ -38,6 +38,8 @@ direction ``w / s`` is undefined; the subgradient 0 is used there.
 
 Units: every length (points, triangles, ``sigma``) is in the same unit; this module is
 unit-agnostic. :mod:`hand_tracker_ros.energies.collision` scales metres to model units.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -36,23 +36,30 @@ search only measures the offset along the normal; the tangential position of ``t
 pixel rounding, and penalising it would drag contour points along the edge (the aperture
 problem) and double the rows. Point-to-line also lets the contour slide along a straight
 edge as the pose changes, which is what the next round's re-matching assumes.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numba
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
-                                                   image_linearize, image_residuals)
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.observations import CameraObservation
+from hand_tracker_ros.core.views import ModelView
+from hand_tracker_ros.energies._projection import (
+    ImageTargets,
+    block_vertices,
+    image_linearize,
+    image_residuals,
+)
 from hand_tracker_ros.errors import ShapeError
-from hand_tracker_ros.tracking.observations import CameraObservation
-from hand_tracker_ros.tracking.views import ModelView
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.vision.edges import EdgeMap
 
 _REFERENCE_WIDTH_PX = 640.0
@@ -225,11 +232,16 @@ class EdgeEnergy:
         self.vertex_part = np.asarray(vertex_part, dtype=np.int64)
 
     @classmethod
-    def from_model(cls, config: EdgeEnergyConfig, model: Any) -> EdgeEnergy:
+    def from_model(cls, config: EdgeEnergyConfig, model: HandModel) -> EdgeEnergy:
         """The term for ``model`` (a HandModel)."""
         return cls(config, model.vertex_part)
 
-    def correspond(self, context: Any) -> EdgeCorrespondences:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> EdgeCorrespondences:
         """Match every camera's contour points to image edges (no blocks when disabled)."""
         cameras = context.observations.cameras
         if len(cameras) != len(context.views):
@@ -240,11 +252,11 @@ class EdgeEnergy:
         return EdgeCorrespondences(tuple(self._match(view, obs)
                                          for view, obs in zip(context.views, cameras)))
 
-    def residuals(self, posed: Any, correspondences: EdgeCorrespondences) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: EdgeCorrespondences) -> FloatArray:
         """Point-to-line residuals ``r (M,)`` (px)."""
         return image_residuals(posed, correspondences.blocks)
 
-    def linearize(self, posed: Any, correspondences: EdgeCorrespondences
+    def linearize(self, posed: PosedHand, correspondences: EdgeCorrespondences
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (px) and analytic Jacobian ``J (M, P)``."""
         return image_linearize(posed, correspondences.blocks)

@@ -27,19 +27,29 @@ uneven mesh, while the sphere-mesh hand's triangles are of similar size.
 No previous frame, or no flow in a camera (first frame, reset, flow disabled), gives no rows
 from that camera; M = 0 overall then. Switching the term off after the first rounds of a
 frame (Ballan: 25 %) is the tracker's schedule, not this module's.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
-                                                   image_linearize, image_residuals)
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.energies._projection import (
+    ImageTargets,
+    block_vertices,
+    image_linearize,
+    image_residuals,
+)
+from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.render.rasterizer import RenderResult
+from hand_tracker_ros.vision.flow import FlowField
 
 NAME = 'flow'
 
@@ -134,11 +144,16 @@ class FlowEnergy:
         self.vertex_part = np.asarray(vertex_part, dtype=np.int64)
 
     @classmethod
-    def from_model(cls, config: FlowEnergyConfig, model: Any) -> FlowEnergy:
+    def from_model(cls, config: FlowEnergyConfig, model: HandModel) -> FlowEnergy:
         """The term for a :class:`~hand_tracker_ros.model.hand.HandModel`."""
         return cls(config, model.vertex_part)
 
-    def correspond(self, context: Any) -> FlowCorrespondences:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> FlowCorrespondences:
         """Flow targets of the points visible at t-1, per camera (empty without flow).
 
         Parameters
@@ -161,7 +176,8 @@ class FlowEnergy:
                 blocks.append(block)
         return FlowCorrespondences(tuple(blocks))
 
-    def _camera_targets(self, camera: Any, flow: Any, prev_raster: Any,
+    def _camera_targets(self, camera: Camera, flow: FlowField,
+                        prev_raster: RenderResult,
                         uv_now_px: FloatArray) -> ImageTargets:
         """Targets of one camera: visible at t-1, valid flow, subsampled, outliers removed."""
         cfg = self.config
@@ -178,11 +194,11 @@ class FlowEnergy:
         ids, targets = ids[inlier], targets[inlier]
         return ImageTargets(camera, ids, targets, np.ones(ids.size))
 
-    def residuals(self, posed: Any, correspondences: FlowCorrespondences) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: FlowCorrespondences) -> FloatArray:
         """Residuals ``r (M,)`` (px): ``u_i - t_i`` per target, u then v."""
         return image_residuals(posed, correspondences.blocks)
 
-    def linearize(self, posed: Any, correspondences: FlowCorrespondences
+    def linearize(self, posed: PosedHand, correspondences: FlowCorrespondences
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (px) and analytic Jacobian ``J (M, P)`` (px per unit)."""
         return image_linearize(posed, correspondences.blocks)

@@ -1,4 +1,6 @@
-r"""L, the joint-limit term of the sphere-mesh tracker (second seed, "Joint limits").
+r"""L, the joint-limit term of the sphere-mesh tracker (the second seed, "Joint limits").
+
+The second seed: docs/references.md.
 
 .. math:: E_L = \sum_{a} I_a \, |a(c^t) - R_L \, a(c^0)|^2
 
@@ -19,17 +21,18 @@ and its parent ``b`` (the palm) with respect to the rest pose, the seed's limiti
 
 .. math:: R_L = R_b \tilde R_{b \to a} R_{b \to a}^T R_b^T R_a,
 
-where ``R_{b->a} = R_b^T R_a`` is the local rotation and ``\tilde R_{b->a}`` the same
-rotation with its flexion and abduction clamped. We evaluate the equation as written; with our
-exact bone frames ``R_{b->a}^T R_b^T R_a = I``, so ``R_L = R_b \tilde R_{b->a}``: the parent's
-rotation times the clamped local rotation, applied to the rest bone vector ``a(c^0)``. The Euler angles are read in the bone's rest
-frame, where the model's joint is ``Q = Rz(-abd) Rx(flex)`` (abduction about the parent's
-axis, then flexion). The seed's x-z-y split ``Rx(tx) Rz(tz) Ry(ty)`` (x flexion, z
-abduction, y twist found last) is applied to ``Q^T = Rx(-flex) Rz(abd)``: it then recovers
-the model's angles exactly (``tx = -flex``, ``tz = abd``, twist 0). Applied to ``Q`` itself it
-would mix abduction into flexion (``tan tx = tan flex / cos abd``) and report violations for
-poses inside the table (thumb CMC at flex 50, abd 70 deg reads tx = 74 deg). Clamping keeps the
-twist, which is what the seed's "the twist component is discarded" amounts to.
+where ``R_{b->a} = R_b^T R_a`` is the local rotation and ``\tilde R_{b->a}`` the same rotation
+with its flexion and abduction clamped. We evaluate the equation as written; with our exact bone
+frames ``R_{b->a}^T R_b^T R_a = I``, so ``R_L = R_b \tilde R_{b->a}``: the parent's rotation
+times the clamped local rotation, applied to the rest bone vector ``a(c^0)``. The Euler angles
+are read in the bone's rest frame, where the model's joint is ``Q = Rz(-abd) Rx(flex)``
+(abduction about the parent's axis, then flexion). The seed's x-z-y split ``Rx(tx) Rz(tz)
+Ry(ty)`` (x flexion, z abduction, y twist found last) is applied to ``Q^T = Rx(-flex) Rz(abd)``:
+it then recovers the model's angles exactly (``tx = -flex``, ``tz = abd``, twist 0). Applied to
+``Q`` itself it would mix abduction into flexion (``tan tx = tan flex / cos abd``) and report
+violations for poses inside the table (thumb CMC at flex 50, abd 70 deg reads tx = 74 deg).
+Clamping keeps the twist, which is what the seed's "the twist component is discarded" amounts
+to.
 
 Upper joints (PIP, DIP, thumb MCP and IP). A plane is fitted to the finger's four joint
 locations (least squares: the right singular vector of the smallest singular value of the
@@ -57,10 +60,10 @@ against (palm for bases and plane limits, the parent finger bone for upper joint
 .. math:: r = W_p(\theta)^T a(c^t) - u,
 
 the seed's world-frame residual ``a(c^t) - R_L a(c^0)`` rotated by ``W_p^T``: the same
-norm at the start of the round, but it depends on the joint angles only. A target fixed in
-the world would resist a motion of the parent (e.g. a global rotation asked for by the image
-terms) within a round, and the world-frame residual gives the global rotation non-zero
-Jacobian columns along which its norm does not change, so LM drifts along them. With ``w_k`` the world axis of
+norm at the start of the round, but it depends on the joint angles only. A target fixed in the
+world would resist a motion of the parent (e.g. a global rotation asked for by the image terms)
+within a round, and the world-frame residual gives the global rotation non-zero Jacobian columns
+along which its norm does not change, so LM drifts along them. With ``w_k`` the world axis of
 every revolute DOF ``k`` that moves bone ``p``, ``dW_p / dtheta_k = [w_k]_x W_p`` gives
 
 .. math:: dr / d\theta_k = W_p^T (da / d\theta_k - w_k \times a),
@@ -72,18 +75,24 @@ Limitation of bone-vector limits (the seed's): a bone vector has two degrees of 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.errors import ConfigError
-from hand_tracker_ros.geometry.rotations import (euler_xzy_from_matrix,
-                                                 matrix_from_axis_angle, rot_x, rot_y, rot_z)
+from hand_tracker_ros.geometry.rotations import (
+    euler_xzy_from_matrix,
+    matrix_from_axis_angle,
+    rot_x,
+    rot_y,
+    rot_z,
+)
 from hand_tracker_ros.model import kinematics
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import P
 from hand_tracker_ros.model.skeleton import FINGER_NAMES, RestSkeleton, joint_limits
 
@@ -250,11 +259,11 @@ class JointLimitsEnergy:
             [config.thumb_plane_palm_deg] + [config.plane_palm_deg] * 4))
 
     @classmethod
-    def from_model(cls, config: JointLimitsConfig, model: Any) -> JointLimitsEnergy:
+    def from_model(cls, config: JointLimitsConfig, model: HandModel) -> JointLimitsEnergy:
         """The term for a :class:`~hand_tracker_ros.model.hand.HandModel`."""
         return cls(config, model.rest, model.rest_bone_transforms)
 
-    def measure(self, posed: Any) -> LimitAngles:
+    def measure(self, posed: PosedHand) -> LimitAngles:
         """The angles this term limits, for a posed hand (``bone_transforms``, ``keypoints_m``)."""
         rot = posed.bone_transforms[:, :3, :3]
         flex, abd, twist = np.zeros(5), np.zeros(5), np.zeros(5)
@@ -272,11 +281,16 @@ class JointLimitsEnergy:
             normals[i], elev[i] = n, np.arcsin(np.clip(n @ rot[0][:, 2], -1.0, 1.0))
         return LimitAngles(flex, abd, twist, upper, normals, elev)
 
-    def correspond(self, context: Any) -> LimitTargets:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> LimitTargets:
         """Find the violated limits of ``context.posed`` (a RoundContext) and their targets."""
         return self.targets(context.posed)
 
-    def targets(self, posed: Any) -> LimitTargets:
+    def targets(self, posed: PosedHand) -> LimitTargets:
         """The violated limits of ``posed`` and their targets (see :class:`LimitTargets`)."""
         angles = self.measure(posed)
         blocks: list[tuple[int, int, int, FloatArray, str]] = []
@@ -294,7 +308,7 @@ class JointLimitsEnergy:
         return LimitTargets(np.array(child, dtype=np.int64), np.array(parent, dtype=np.int64),
                             np.array(frame, dtype=np.int64), np.array(target), labels)
 
-    def _base_blocks(self, posed: Any, angles: LimitAngles, i: int,
+    def _base_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
                      finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
         """The seed's R_L for the base joint of finger ``i`` if it is outside its limits."""
         k0, bone = 6 + 4 * i, 1 + 3 * i
@@ -313,7 +327,7 @@ class JointLimitsEnergy:
         joint = 'cmc' if finger == 'thumb' else 'mcp'
         return [(2 + 4 * i, 1 + 4 * i, 0, r_b.T @ r_limit @ rest_vector, f'{finger}_{joint}')]
 
-    def _upper_blocks(self, posed: Any, angles: LimitAngles, i: int,
+    def _upper_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
                       finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
         """Rotations about the finger-plane normal bringing the 2nd/3rd joints to their limits."""
         n = angles.plane_normal[i]
@@ -334,7 +348,7 @@ class JointLimitsEnergy:
             out.append((2 + 4 * i + j, 1 + 4 * i + j, frame, w_p.T @ target, f'{finger}_{joint}'))
         return out
 
-    def _plane_blocks(self, posed: Any, angles: LimitAngles, i: int,
+    def _plane_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
                       finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
         """Smallest rotation of the finger plane to its elevation limit, on all three bones."""
         lo, hi = self.plane_range[i]
@@ -355,7 +369,7 @@ class JointLimitsEnergy:
         return [(2 + 4 * i + s, 1 + 4 * i + s, 0, palm.T @ r_limit @ bones[s],
                  f'{finger}_plane_{segments[s]}') for s in range(3)]
 
-    def residuals(self, posed: Any, correspondences: LimitTargets) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: LimitTargets) -> FloatArray:
         """Residuals ``r (M,)`` (m): ``W_p^T a(c^t) - u`` per block, x y z of frame ``p``."""
         c = correspondences
         bone = posed.keypoints_m[c.child_kp] - posed.keypoints_m[c.parent_kp]
@@ -366,7 +380,7 @@ class JointLimitsEnergy:
         """No mesh vertex: the rows read ``keypoints_jac`` only."""
         return np.zeros(0, dtype=np.int64)
 
-    def linearize(self, posed: Any, correspondences: LimitTargets
+    def linearize(self, posed: PosedHand, correspondences: LimitTargets
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per unit)."""
         c = correspondences

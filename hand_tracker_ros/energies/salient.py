@@ -31,11 +31,12 @@ Residual of an assigned pair (fingertip vertex ``X_k``, detection ``y_j`` with s
 
 with the Jacobian ``sqrt(s_j) d pi_c / dX . dX_k / d theta`` (see :mod:`._projection`). The
 confidence weight ``sqrt(s_j)`` makes the cost of a pair proportional to the score.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -44,8 +45,16 @@ from scipy.spatial.distance import cdist
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies._projection import (ImageTargets, block_vertices,
-                                                   image_linearize, image_residuals)
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.observations import CameraObservation
+from hand_tracker_ros.energies._projection import (
+    ImageTargets,
+    block_vertices,
+    image_linearize,
+    image_residuals,
+)
+from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.render.rasterizer import RenderResult
 
 NAME = 'salient'
 
@@ -144,7 +153,7 @@ class SalientEnergy:
         check_shape('fingertip_vertex_ids', self.fingertip_vertex_ids, (None,))
 
     @classmethod
-    def from_model(cls, config: SalientConfig, model: Any) -> SalientEnergy:
+    def from_model(cls, config: SalientConfig, model: HandModel) -> SalientEnergy:
         """The term for a :class:`~hand_tracker_ros.model.hand.HandModel`."""
         return cls(config, model.fingertip_vertex_ids)
 
@@ -152,7 +161,12 @@ class SalientEnergy:
         """The gate (px) in an image ``width_px`` wide."""
         return self.config.gate_px * width_px / self.config.reference_width_px
 
-    def correspond(self, context: Any) -> SalientCorrespondences:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> SalientCorrespondences:
         """Assign every camera's detections to the visible model fingertips.
 
         Parameters
@@ -171,7 +185,7 @@ class SalientEnergy:
                                            obs.tips.uv_px[det], np.sqrt(obs.tips.score[det])))
         return SalientCorrespondences(tuple(blocks), tuple(labels))
 
-    def _camera_labels(self, obs: Any, raster: Any) -> IntArray:
+    def _camera_labels(self, obs: CameraObservation, raster: RenderResult) -> IntArray:
         """(N,) finger of each detection of one camera, or -1."""
         tips = obs.tips
         labels = np.full(tips.score.shape[0], -1, dtype=np.int64)
@@ -184,11 +198,11 @@ class SalientEnergy:
         labels[strong[assigned]] = fingers[tip[assigned]]
         return labels
 
-    def residuals(self, posed: Any, correspondences: SalientCorrespondences) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: SalientCorrespondences) -> FloatArray:
         """Residuals ``r (M,)`` (px): ``sqrt(score) (u_tip - y)`` per pair, u then v."""
         return image_residuals(posed, correspondences.blocks)
 
-    def linearize(self, posed: Any, correspondences: SalientCorrespondences
+    def linearize(self, posed: PosedHand, correspondences: SalientCorrespondences
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (px) and analytic Jacobian ``J (M, P)`` (px per unit)."""
         return image_linearize(posed, correspondences.blocks)

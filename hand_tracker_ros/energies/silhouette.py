@@ -1,4 +1,4 @@
-r"""Sil, the silhouette term in 3D (second seed, "Silhouette energy").
+r"""Sil, the silhouette term in 3D (the second seed: docs/references.md).
 
 Model points that project outside the observed hand silhouette are pulled, in 3D, onto the
 camera rays through their closest data-silhouette pixels:
@@ -53,18 +53,19 @@ the mask and nothing pulls them out), 2.5 mm at 0.05, 2.1 at 0.1, 1.8 at 0.15-0.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
-from typing import Any
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.observations import CameraObservation
+from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.errors import ShapeError
-from hand_tracker_ros.tracking.observations import CameraObservation
-from hand_tracker_ros.tracking.views import ModelView
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.vision.features import CameraFeatures
 
 _MIN_RAY_DISTANCE_M = 1e-9
@@ -195,12 +196,17 @@ class SilhouetteEnergy:
         self.config = config
 
     @classmethod
-    def from_model(cls, config: SilhouetteConfig, model: Any) -> SilhouetteEnergy:
+    def from_model(cls, config: SilhouetteConfig, model: HandModel) -> SilhouetteEnergy:
         """The term for ``model`` (it needs no model tables)."""
         del model
         return cls(config)
 
-    def correspond(self, context: Any) -> SilhouetteCorrespondences:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> SilhouetteCorrespondences:
         """Point-to-ray matches of every camera (model to data, then data to model)."""
         cameras = context.observations.cameras
         if len(cameras) != len(context.views):
@@ -228,13 +234,14 @@ class SilhouetteEnergy:
                             np.vstack(origins), np.vstack(dirs),
                             np.repeat(scales, [len(ids) for ids, _ in pairs]))
 
-    def residuals(self, posed: Any, correspondences: SilhouetteCorrespondences) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: SilhouetteCorrespondences
+                  ) -> FloatArray:
         """Signed point-to-ray-plane distances ``r (M,)`` (m)."""
         c = correspondences
         diff = posed.vertices_m[c.vertex_ids] - c.ray_origins_m
         return np.einsum('ni,ni->n', c.normals, diff)
 
-    def linearize(self, posed: Any, correspondences: SilhouetteCorrespondences
+    def linearize(self, posed: PosedHand, correspondences: SilhouetteCorrespondences
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per parameter unit)."""
         c = correspondences
@@ -326,7 +333,7 @@ def _stride(n: int, cap: int) -> IntArray:
     return np.linspace(0, n - 1, cap).astype(np.int64)
 
 
-def _ray_matches(posed: Any, vertex_ids: IntArray, origins_m: FloatArray, dirs: FloatArray,
+def _ray_matches(posed: PosedHand, vertex_ids: IntArray, origins_m: FloatArray, dirs: FloatArray,
                  scale: FloatArray) -> SilhouetteCorrespondences:
     """Vertices (M,) against the rays ``origins_m (M, 3) + s dirs (M, 3)`` (unit directions):
     ``n`` from the ray towards the vertex, times the row weight ``scale (M,)``."""

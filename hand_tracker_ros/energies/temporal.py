@@ -19,18 +19,21 @@ prediction need not be reachable by any pose (bone lengths are not preserved by
 extrapolation); the prior then pulls towards the nearest pose in the least-squares sense.
 Residuals are in m, so the weight is relative to the px residuals of the image terms:
 ``weight = 1e4`` makes 1 cm on one keypoint cost like 1 px on one image point.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.model import kinematics
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import P
 from hand_tracker_ros.model.skeleton import KEYPOINT_BONES, RestSkeleton
 
@@ -91,7 +94,7 @@ class TemporalEnergy:
         self._bones = np.asarray(KEYPOINT_BONES, dtype=np.int64)
 
     @classmethod
-    def from_model(cls, config: TemporalConfig, model: Any) -> TemporalEnergy:
+    def from_model(cls, config: TemporalConfig, model: HandModel) -> TemporalEnergy:
         """The term for a :class:`~hand_tracker_ros.model.hand.HandModel`."""
         return cls(config, model.rest, model.keypoint_local_m)
 
@@ -118,13 +121,18 @@ class TemporalEnergy:
             return TemporalTarget(last)
         return TemporalTarget(2.0 * last - self.keypoints(thetas[-2]))
 
-    def correspond(self, context: Any) -> TemporalTarget:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> TemporalTarget:
         """The prediction from ``context.previous.thetas`` (empty without a previous frame)."""
         if context.previous is None:
             return TemporalTarget(np.zeros((0, 3)))
         return self.predict(context.previous.thetas)
 
-    def residuals(self, posed: Any, correspondences: TemporalTarget) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: TemporalTarget) -> FloatArray:
         """Residuals ``r (M,)`` (m): ``k(theta) - k_hat``, keypoint-major x y z."""
         target = correspondences.keypoints_m
         if target.shape[0] == 0:
@@ -135,7 +143,7 @@ class TemporalEnergy:
         """No mesh vertex: the rows read ``keypoints_jac`` only."""
         return np.zeros(0, dtype=np.int64)
 
-    def linearize(self, posed: Any, correspondences: TemporalTarget
+    def linearize(self, posed: PosedHand, correspondences: TemporalTarget
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per unit)."""
         if correspondences.keypoints_m.shape[0] == 0:

@@ -28,17 +28,20 @@ there is nothing to separate. With ``d_ij = |c_i - c_j|`` and ``u = (c_i - c_j) 
 backstop, zero on the ground truth of the benchmark motions; see the test). The pairs of a
 round are those with ``r_i + r_j - margin - d_ij > -reach_m`` at its start, so a pair
 that comes into contact during the round's steps is already in the residual vector.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import P
 
 NAME = 'volume'
@@ -145,7 +148,7 @@ class VolumeCollisionEnergy:
         self.candidates = np.asarray(candidates, np.int64)
 
     @classmethod
-    def from_model(cls, config: VolumeCollisionConfig, model: Any) -> VolumeCollisionEnergy:
+    def from_model(cls, config: VolumeCollisionConfig, model: HandModel) -> VolumeCollisionEnergy:
         """The term for a ``HandModel`` (its sphere mesh, adjacency and rest pose)."""
         pill_part = model.sphere_part[model.pills[:, 1]]
         weights, radii, part = sample_balls(model.pills, pill_part, model.wedges,
@@ -163,7 +166,12 @@ class VolumeCollisionEnergy:
         d = np.linalg.norm(centers_m[pairs[:, 0]] - centers_m[pairs[:, 1]], axis=1)
         return self.radii_m[pairs[:, 0]] + self.radii_m[pairs[:, 1]] - self.config.margin_m - d
 
-    def correspond(self, context: Any) -> BallPairs:
+    @property
+    def weight(self) -> float:
+        """Weight of the term's cost ``0.5 * weight * |r|^2``."""
+        return self.config.weight
+
+    def correspond(self, context: RoundContext) -> BallPairs:
         """Pairs within ``reach_m`` of overlapping at ``context.posed``."""
         return self.pairs_at(context.posed.sphere_centers_m)
 
@@ -174,7 +182,7 @@ class VolumeCollisionEnergy:
         near = self.overlaps(self.weights @ sphere_centers_m, self.candidates)
         return BallPairs(self.candidates[near > -reach_m])
 
-    def residuals(self, posed: Any, pairs: BallPairs) -> FloatArray:
+    def residuals(self, posed: PosedHand, pairs: BallPairs) -> FloatArray:
         """Residuals ``r (M,)`` (m), ``max(0, overlap)``."""
         centers = self.weights @ posed.sphere_centers_m
         return np.maximum(self.overlaps(centers, pairs.ids), 0.0)
@@ -183,7 +191,7 @@ class VolumeCollisionEnergy:
         """No mesh vertex: the rows read ``sphere_centers_jac`` only."""
         return np.zeros(0, dtype=np.int64)
 
-    def linearize(self, posed: Any, pairs: BallPairs) -> tuple[FloatArray, FloatArray]:
+    def linearize(self, posed: PosedHand, pairs: BallPairs) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per unit)."""
         if pairs.n_residuals == 0:
             return np.zeros(0), np.zeros((0, P))

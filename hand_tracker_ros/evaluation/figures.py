@@ -20,6 +20,7 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, UInt8Array
 from hand_tracker_ros.bags.convert import HandStateValues
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.evaluation.metrics import FAILURE_MM
@@ -27,10 +28,9 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import camera_image_topic
 from hand_tracker_ros.render.rasterizer import render
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.overlay import CONTOUR_RGB, SKELETON_RGB, draw_overlay
-from hand_tracker_ros.tracking.result import TrackStatus
 from hand_tracker_ros.vision.image import to_gray
-from hand_tracker_ros.vision.image_codec import image_from_msg
 
 _FONT = cv2.FONT_HERSHEY_SIMPLEX
 _FONT_SCALE = 0.4

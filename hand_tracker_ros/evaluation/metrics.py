@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 
 TIP_INDICES = tuple(i for i, name in enumerate(KEYPOINT_NAMES) if name.endswith('_tip'))
@@ -53,7 +53,7 @@ def joint_errors_mm(estimated_m: FloatArray, truth_m: FloatArray) -> FloatArray:
 
 
 def reprojection_px(estimated_m: FloatArray, truth_m: FloatArray,
-                    cameras: Sequence[PinholeCamera]) -> FloatArray:
+                    cameras: Sequence[Camera]) -> FloatArray:
     """Per-frame mean image distance of projected keypoints, ``(T, J, 3)`` x2 -> ``(T,)``."""
     t, j, _ = estimated_m.shape
     errors = []
@@ -65,7 +65,7 @@ def reprojection_px(estimated_m: FloatArray, truth_m: FloatArray,
 
 
 def score_sequence(estimated_m: FloatArray, truth_m: FloatArray, lost: Sequence[bool],
-                   cameras: Sequence[PinholeCamera], interpenetration_m: Sequence[float],
+                   cameras: Sequence[Camera], interpenetration_m: Sequence[float],
                    seconds_per_frame: Sequence[float]) -> SequenceScores:
     """Summarise a tracked sequence.
 
@@ -75,7 +75,7 @@ def score_sequence(estimated_m: FloatArray, truth_m: FloatArray, lost: Sequence[
         Estimated and true keypoints per frame (world frame, m).
     lost : (T,) bool
         Frames the tracker reported as lost.
-    cameras : sequence of PinholeCamera
+    cameras : sequence of Camera
         The rig, for the reprojection error.
     interpenetration_m : (T,) float
         Largest interpenetration depth of the estimated mesh per frame (m).

@@ -4,7 +4,8 @@ Every configuration tracks with the same pipeline and differs only in its energy
 solver. ``LO`` is the local optimizer: warm-started box-constrained Levenberg-Marquardt with the
 temporal prior T (a regulariser of the optimizer, present in every LO row, so the rows differ
 exactly by the data terms the paper ablates). Joint limits are hard bounds in every row; the
-full method adds the joint-limit energy L and the 3D silhouette term Sil of the second seed.
+full method adds the joint-limit energy L and the 3D silhouette term Sil of the second seed
+(docs/references.md).
 
 =========  =========================================================
 name       terms
@@ -34,14 +35,13 @@ from __future__ import annotations
 from typing import Any
 
 from hand_tracker_ros.config import flatten, from_mapping
+from hand_tracker_ros.energies.registry import NAMES as TERMS
+from hand_tracker_ros.energies.registry import ablation_terms
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 
-TERMS = ('edges', 'flow', 'salient', 'collision', 'volume', 'limits', 'silhouette', 'temporal')
+# The rows name their data terms by the registry's keys (``energies/registry.py``).
 ABLATION = {
-    'LO+E': ('edges', 'temporal'),
-    'LO+EC': ('edges', 'collision', 'volume', 'temporal'),
-    'LO+ECO': ('edges', 'collision', 'volume', 'flow', 'temporal'),
-    'LO+ECOS': ('edges', 'collision', 'volume', 'flow', 'salient', 'temporal'),
+    **{f'LO+{letters}': ablation_terms(letters) for letters in ('E', 'EC', 'ECO', 'ECOS')},
     'full': TERMS,
 }
 # PSO gets no less time than the full LM method: 16 x 5 objective evaluations of ~2 ms plus one

@@ -21,17 +21,22 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_tracker_ros.ament import share_file
 from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.ament import share_file
 from hand_tracker_ros.bags.convert import HandStateValues, hand_state_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
-from hand_tracker_ros.launcher import (TRACKING_PROCESSES, ProcessGroup, ProcessSpec,
-                                       player_waits_for_image_consumers, ros_list,
-                                       tracker_mode_args)
+from hand_tracker_ros.launcher import (
+    TRACKING_PROCESSES,
+    ProcessGroup,
+    ProcessSpec,
+    player_waits_for_image_consumers,
+    ros_list,
+    tracker_mode_args,
+)
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
 from hand_tracker_ros.topics import JOINT_STATES, STATE

@@ -27,12 +27,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.evaluation.metrics import joint_errors_mm
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.tracking.result import TrackStatus
 
 LOG = logging.getLogger(__name__)
 FAIL_MM, RECOVERED_MM = 15.0, 10.0

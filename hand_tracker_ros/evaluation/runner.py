@@ -5,6 +5,8 @@ pose of frame 0 (as Ballan et al. initialise manually) and frame 0 primes the fe
 1..T-1 are tracked and scored. When the tracker reports ``failure.reinit_after`` consecutive
 lost frames it is re-initialised from the ground truth of the current frame (an evaluation
 stand-in for re-detection); those lost frames count as failures.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
@@ -17,14 +19,14 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.progress import progress
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.tracking.result import TrackStatus
 
 LOG = logging.getLogger(__name__)
 

@@ -19,11 +19,11 @@ as ``p = R X + t`` with ``[R | t] = T_cam_world[:3]``. With ``x = p_x / p_z`` an
 Pixel convention: the centre of pixel (column u, row v) is at integer coordinates (u, v),
 as in OpenCV and ROS; the pixel covers [u - 0.5, u + 0.5) x [v - 0.5, v + 0.5).
 
-The projection is written out (one numba pass) rather than done with ``cv2.projectPoints``: the latter always
-computes its 2N x 15 Jacobian w.r.t. the camera parameters and is about 10x slower for the
-tracker's job (perf-notes, section 2). The Jacobian w.r.t. the world point is the chain
-``d(uv)/dX = diag(f_x, f_y) . d(x_d, y_d)/d(x, y) . d(x, y)/dp . R`` with
-``d(x, y)/dp = [[1/z, 0, -x/z], [0, 1/z, -y/z]]``.
+The projection is written out (one numba pass) rather than done with ``cv2.projectPoints``: the
+latter always computes its 2N x 15 Jacobian w.r.t. the camera parameters and is about 10x slower
+for the tracker's job (measured when it was written). The Jacobian w.r.t. the world point is the
+chain ``d(uv)/dX = diag(f_x, f_y) . d(x_d, y_d)/d(x, y) . d(x, y)/dp . R`` with ``d(x, y)/dp =
+[[1/z, 0, -x/z], [0, 1/z, -y/z]]``.
 """
 from __future__ import annotations
 

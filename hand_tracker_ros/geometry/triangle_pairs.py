@@ -14,10 +14,11 @@ correspondence round, in one numba kernel:
    triangles are tested in 2D (edge crossings, then containment). Triangles are closed sets:
    touching counts as intersecting. The plane-side tolerance is relative to the triangle size.
 
-A bounding-volume hierarchy would have to be refitted every pose (perf-notes section 5: fcl
-rebuilds cost 40-60 ms); the part boxes make a BVH's top levels for free, and the sweep only
-sees the triangles in the overlap region: about 0.5-1.5 ms on the 9.8k-triangle hand
-(bench/bench_collision.py). No library offers a refit-free triangle-level test, hence our own kernel.
+A bounding-volume hierarchy would have to be refitted every pose (measured, see
+docs/references.md: fcl rebuilds cost 40-60 ms); the part boxes make a BVH's top levels for
+free, and the sweep only sees the triangles in the overlap region: about 0.5-1.5 ms on the
+9.8k-triangle hand (bench/bench_collision.py). No library offers a refit-free triangle-level
+test, hence our own kernel.
 
 **Interpenetration depth** (:func:`penetration_depths_m`, :func:`max_interpenetration_m`), the
 evaluation metric: a vertex of part ``a`` penetrates part ``b`` (``a, b`` not adjacent) when its

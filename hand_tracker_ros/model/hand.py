@@ -16,20 +16,19 @@ import numpy as np
 from hand_tracker_ros._typing import BoolArray, FloatArray, Int32Array, IntArray
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.model import kinematics
-from hand_tracker_ros.model.layout import Layout, P, PARAM_NAMES
+from hand_tracker_ros.model.layout import PARAM_NAMES, Layout, P
 from hand_tracker_ros.model.mesh import adjacent_parts, build_skinned_mesh
+from hand_tracker_ros.model.poses import NEUTRAL_RAD
 from hand_tracker_ros.model.shape import HandShape
-from hand_tracker_ros.model.skeleton import (BONE_NAMES, KEYPOINT_BONES, RestSkeleton,
-                                             joint_limits, rest_skeleton)
+from hand_tracker_ros.model.skeleton import (
+    BONE_NAMES,
+    KEYPOINT_BONES,
+    RestSkeleton,
+    joint_limits,
+    rest_skeleton,
+)
 from hand_tracker_ros.model.skinning import skin, skin_with_jacobian, vertex_normals
 from hand_tracker_ros.model.spheremesh import build_sphere_mesh
-
-# Relaxed, slightly flexed open hand (rad), our choice; inside the joint limits.
-_NEUTRAL = {'thumb_cmc_flex': 0.15, 'thumb_cmc_abd': 0.25, 'thumb_mcp_flex': 0.15,
-            'thumb_ip_flex': 0.15,
-            **{f'{f}_{j}': v for f in ('index', 'middle', 'ring', 'pinky')
-               for j, v in (('mcp_flex', 0.2), ('mcp_abd', 0.0), ('pip_flex', 0.25),
-                            ('dip_flex', 0.15))}}
 
 
 def _readonly(*arrays: np.ndarray) -> None:
@@ -172,7 +171,7 @@ class HandModel:
         """Relaxed, slightly flexed open hand (P,) float64 with the wrist at ``translation_m``."""
         theta = np.zeros(P)
         theta[Layout.translation] = np.asarray(translation_m, dtype=np.float64)
-        for name, value in _NEUTRAL.items():
+        for name, value in NEUTRAL_RAD.items():
             theta[PARAM_NAMES.index(name)] = value
         return theta
 

@@ -20,15 +20,15 @@ hinge's rotation applied to the local axis (e.g. flexion axis ``R_parent R_rest 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
-from hand_tracker_ros.model.layout import P, PARAM_NAMES
-from hand_tracker_ros.model.skeleton import B, KEYPOINT_BONES, RestSkeleton
+from hand_tracker_ros.model.layout import PARAM_NAMES, P
+from hand_tracker_ros.model.skeleton import KEYPOINT_BONES, B, RestSkeleton
 
 _RY, _RZ, _RX = (PARAM_NAMES.index(n) for n in ('hand_ry', 'hand_rz', 'hand_rx'))
 # theta index of the first DOF of finger i (flex, abd, 2nd-joint flex, 3rd-joint flex).

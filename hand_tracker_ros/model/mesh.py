@@ -30,9 +30,13 @@ import trimesh
 from skimage.measure import marching_cubes
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, Int32Array, IntArray
-from hand_tracker_ros.model.skeleton import B, BONE_PARENTS
-from hand_tracker_ros.model.spheremesh import (SphereMesh, element_pills, part_distances,
-                                               round_cone_distance)
+from hand_tracker_ros.model.skeleton import BONE_PARENTS, B
+from hand_tracker_ros.model.spheremesh import (
+    SphereMesh,
+    element_pills,
+    part_distances,
+    round_cone_distance,
+)
 
 MAX_INFLUENCES = 4
 _GRID_SPACING_M = 0.0033

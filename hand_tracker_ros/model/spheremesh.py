@@ -15,6 +15,8 @@ one of them up to a ridge of depth ``~ L dphi^2 / 8`` (< 0.05 mm for our palm).
 Spheres: 0-1 wrist (radial, ulnar), 2-6 base joints (thumb CMC, index..pinky MCP), then per
 finger i the spheres ``7 + 3 i + l`` at the distal end of segment ``l`` (the last one is the
 tip sphere, tangent to the fingertip). A sphere belongs to the bone it is attached to.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@
 nodes here, spun by one executor, like an rclcpp component container: each keeps its name,
 parameters and output topics, but the image sets travel in memory. The tracker synchronizes
 the raw images; for each set it tracks, :class:`InProcessObserver` decodes the images once
-(:mod:`hand_tracker_ros.vision.image_codec`, the one decoder), asks the features node for
+(:mod:`hand_tracker_ros.bags.image_codec`, the one decoder), asks the features node for
 edges, mask and flow and the salient_points node for fingertips, and builds the tracker's
 observations, without serializing anything. Features and detections are computed only for
 the sets that are tracked, so optical flow always spans the tracker's own step.
@@ -15,14 +15,14 @@ from collections.abc import Sequence
 
 from rclpy.node import Node
 
+from hand_tracker_ros.bags.image_codec import image_from_msg
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
 from hand_tracker_ros.nodes.features_node import FeaturesNode
 from hand_tracker_ros.nodes.salient_points_node import SalientPointsNode
 from hand_tracker_ros.nodes.tracker_node import TrackerNode
 from hand_tracker_ros.sync.approximate import SyncedSet
-from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
-                                                    SalientDetections)
 from hand_tracker_ros.tracking.attention import Attention
-from hand_tracker_ros.vision.image_codec import image_from_msg
+from hand_tracker_ros.vision.detections import SalientDetections
 
 
 class InProcessObserver:

@@ -29,7 +29,7 @@ from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io.images import ImageInputs, salient_points_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
-from hand_tracker_ros.tracking.observations import SalientDetections
+from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import FingertipDetector
 
 DESCRIPTION = 'Per-camera fingertip (salient point) detection with the trained detector.'

@@ -61,27 +61,33 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 from hand_tracker_ros import topics
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.errors import ConfigError, HandTrackerError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import P
 from hand_tracker_ros.node_config import TrackerNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
+from hand_tracker_ros.pipeline.live import LivePipeline
+from hand_tracker_ros.pipeline.warmup import warm_up
 from hand_tracker_ros.ros_io import outputs
 from hand_tracker_ros.ros_io.estimates import EstimateEncoder
 from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.message_kit import RclpyKit, message_class
-from hand_tracker_ros.ros_io.observations import (PARTS, FrameAssembler,
-                                                  frame_observations, part_value, stamp_ns_of)
+from hand_tracker_ros.ros_io.observations import (
+    PARTS,
+    FrameAssembler,
+    frame_observations,
+    part_value,
+    stamp_ns_of,
+)
 from hand_tracker_ros.ros_io.params import declare_config
-from hand_tracker_ros.pipeline.live import LivePipeline
-from hand_tracker_ros.pipeline.warmup import warm_up
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
 from hand_tracker_ros.sync.input_health import InputHealth
-from hand_tracker_ros.tracking.observations import FrameObservations
 from hand_tracker_ros.tracking.overlay import observation_overlays
-from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 from hand_tracker_ros.tracking.session import TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker
 

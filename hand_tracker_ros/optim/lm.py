@@ -22,13 +22,13 @@ parameters when translations dominate ``A``.
 
 Why hand-written rather than ``scipy.optimize.least_squares``: scipy forces an explicit J and runs
 a QR of it every iteration (5-8x the cost of the normal equations for our 26 columns and 10k-50k
-rows, perf-notes section 6), has no per-iteration hook for frozen parameters, and its ``'lm'``
-method takes no bounds.
+rows, measured when it was written), has no per-iteration hook for frozen parameters, and its
+``'lm'`` method takes no bounds.
 
 A step whose mean absolute change of the angular parameters exceeds ``max_mean_step_rad``
 (Ballan's code: 30 degrees) is treated as divergent and rejected like a cost increase.
 
-References: [Marquardt63] D. Marquardt, SIAM J. Appl. Math. 11(2), 1963.
+References (docs/references.md): [Marquardt63] D. Marquardt, SIAM J. Appl. Math. 11(2), 1963.
 [Nielsen99] H. B. Nielsen, "Damping parameter in Marquardt's method", IMM-REP-1999-05.
 """
 from __future__ import annotations
@@ -74,7 +74,9 @@ MESSAGES = {
 class LMConfig:
     """Levenberg-Marquardt settings."""
 
-    max_iterations: int = param(10, 'LM iterations per call (Ballan: 10)', low=1, high=1000)
+    max_iterations: int = param(10, 'LM iterations per call at most (Ballan: 10); the tracker '
+                                "runs schedule.iterations per round and separation.iterations "
+                                'per separation round, each capped by this', low=1, high=1000)
     tau: float = param(1e-3, 'initial damping, relative to diag(J^T J)', low=1e-12, high=1e6)
     ftol: float = param(1e-6, 'stop when the relative cost decrease is below this',
                         low=0.0, high=1.0)

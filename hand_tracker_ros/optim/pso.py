@@ -15,6 +15,8 @@ best pose (``cost_at(g)``) and all particles of that generation are scored with 
 a generation's comparisons consistent and costs one correspondence search per generation.
 
 [Clerc02] M. Clerc, J. Kennedy, IEEE Trans. Evol. Comput. 6(1), 2002.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -10,32 +10,31 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Collection, Iterator
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from hand_tracker_ros._typing import UInt8Array
-from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues,
-                                           camera_info_from_msg, hand_state_from_msg)
+from hand_tracker_ros.bags.convert import (
+    CameraInfoValues,
+    HandStateValues,
+    camera_info_from_msg,
+    hand_state_from_msg,
+)
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.bags.reader import BagReader, check_bag_path
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.errors import BagFormatError, CalibrationError, HandTrackerError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig
-from hand_tracker_ros.synthetic.writer import (GT_STATE_TOPIC, compressed_image_topic,
-                                              image_topic, info_topic)
-from hand_tracker_ros.vision.image_codec import image_from_msg
+from hand_tracker_ros.synthetic.writer import (
+    GT_STATE_TOPIC,
+    compressed_image_topic,
+    image_topic,
+    info_topic,
+)
 
 LOG = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True, eq=False)
-class FrameSet:
-    """One synchronized set of camera images (rgb8), in rig camera order."""
-
-    stamp_ns: int
-    images: tuple[UInt8Array, ...]
 
 
 def rig_file(bag: str | Path, rig_path: str | Path | None = None) -> Path:

@@ -11,6 +11,8 @@ while set k is fitted). What each set observes is planned by :mod:`..tracking.at
 from the session as it was before the previous set's fit (the whole images, or a region of
 interest around a tracked hand and a detection every few sets), in both, so both give the
 same estimates; ``run`` only takes less wall time per frame.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
@@ -25,16 +27,16 @@ import numpy as np
 
 from hand_tracker_ros._typing import UInt8Array
 from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.core.frames import FrameSet
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
+from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.synthetic.edge_noise import EdgeNoiseConfig, add_edge_noise
 from hand_tracker_ros.tracking.attention import Attention, AttentionConfig, ObservationPlan
-from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
-                                                    SalientDetections)
-from hand_tracker_ros.tracking.result import TrackResult
 from hand_tracker_ros.tracking.session import SessionConfig, TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker, TrackerConfig
+from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
 from hand_tracker_ros.vision.edges import edge_map_from
 from hand_tracker_ros.vision.features import CameraFeatures, FeaturesConfig, MultiCameraFeatures

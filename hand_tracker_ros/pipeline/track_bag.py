@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 
 from hand_tracker_ros.bags.recover import readable_bag
+from hand_tracker_ros.core.frames import FrameSet
+from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import (FrameSet, frame_sets, ground_truth, load_rig,
-                                              rig_file)
+from hand_tracker_ros.pipeline.frames import frame_sets, ground_truth, load_rig, rig_file
 from hand_tracker_ros.pipeline.offline import Detector, OfflinePipeline, PipelineConfig
-from hand_tracker_ros.tracking.result import TrackResult
 
 LOG = logging.getLogger(__name__)
 

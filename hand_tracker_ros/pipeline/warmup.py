@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import time
 
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 

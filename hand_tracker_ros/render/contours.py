@@ -21,8 +21,8 @@ depth-discontinuity boundary, as an edge detector would see it on a rendered ima
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.render.rasterizer import RenderResult
 
 _MIN_LENGTH_PX = 1e-9
@@ -173,13 +173,13 @@ def _contour_normals(uv, front, edge_vertices, faces_of_edge, opposite
     return acc, on
 
 
-def front_facing(camera: PinholeCamera, vertices_world: FloatArray,
+def front_facing(camera: Camera, vertices_world: FloatArray,
                  faces: IntArray) -> BoolArray:
     """Whether each triangle faces the camera centre.
 
     Parameters
     ----------
-    camera : PinholeCamera
+    camera : Camera
     vertices_world : (V, 3) float64
     faces : (F, 3) int64
         Counter-clockwise seen from outside.
@@ -231,14 +231,14 @@ def _contour_kernel(vertices, faces, center, uv, visible, mask, edge_vertices, f
     return ids, normals, outer
 
 
-def contour_points(camera: PinholeCamera, vertices_world: ArrayLike, edges: MeshEdges,
+def contour_points(camera: Camera, vertices_world: ArrayLike, edges: MeshEdges,
                    raster: RenderResult, config: ContourConfig = ContourConfig()
                    ) -> ContourPoints:
     """Visible contour-generator vertices with outward image normals and outer/inner labels.
 
     Parameters
     ----------
-    camera : PinholeCamera
+    camera : Camera
         The view ``raster`` was rendered from.
     vertices_world : (V, 3) float64
         Posed mesh vertices (m), the ones given to :func:`render`.

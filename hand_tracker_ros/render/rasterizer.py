@@ -31,7 +31,7 @@ neighbourhood of (u, v) (clipped to the image) has z-buffer depth >= z_i - ``vis
 on the silhouette, whose own pixel may show background or a neighbouring face.
 
 The kernels are numba ``@njit(cache=True, nogil=True)``: a compiled z-buffer is 10-40x faster
-than numpy/OpenCV/embree alternatives (perf-notes, section 3: 0.07-0.12 ms per 320x240
+than numpy/OpenCV/embree alternatives (bench/bench_render.py: 0.07-0.12 ms per 320x240
 view); ``cache=True`` stores the machine code on disk so the ~1 s compile is paid once, not
 by every process; ``nogil`` lets callers render cameras from several threads.
 """
@@ -48,7 +48,7 @@ from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, Int32A
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
 from hand_tracker_ros.errors import ShapeError
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 
 # Barycentric slack so pixel centres exactly on an edge stay inside despite rounding.
 _INSIDE_EPS = 1e-9
@@ -149,13 +149,13 @@ def _visible(uv: FloatArray, z: FloatArray, zbuf: Float32Array, near: float,
     return out
 
 
-def render(camera: PinholeCamera, vertices_world: ArrayLike, faces: ArrayLike,
+def render(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
            config: RenderConfig = RenderConfig()) -> RenderResult:
     """Rasterize a triangle mesh into one camera.
 
     Parameters
     ----------
-    camera : PinholeCamera
+    camera : Camera
         The view (with distortion).
     vertices_world : (V, 3) float64
         Mesh vertices in the world frame (m).

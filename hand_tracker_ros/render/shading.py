@@ -23,7 +23,7 @@ from hand_tracker_ros._typing import FloatArray, UInt8Array
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
 from hand_tracker_ros.errors import ImageFormatError
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, render
 
 
@@ -69,7 +69,7 @@ def _perspective_weights(raster: RenderResult, faces: np.ndarray, ys: np.ndarray
     return b / b.sum(axis=1, keepdims=True)
 
 
-def render_rgb(camera: PinholeCamera, vertices_world: ArrayLike, faces: ArrayLike,
+def render_rgb(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
                vertex_normals: ArrayLike, background: UInt8Array, *, seed: int = 0,
                raster: RenderResult | None = None,
                config: ShadingConfig = ShadingConfig()) -> UInt8Array:
@@ -77,7 +77,7 @@ def render_rgb(camera: PinholeCamera, vertices_world: ArrayLike, faces: ArrayLik
 
     Parameters
     ----------
-    camera : PinholeCamera
+    camera : Camera
     vertices_world : (V, 3) float64
         Posed mesh vertices (m).
     faces : (F, 3) int

@@ -37,6 +37,7 @@ import numpy as np
 
 from hand_tracker_ros import topics
 from hand_tracker_ros._typing import FloatArray, IntArray
+from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.geometry.rotations import quaternions_xyzw_from_matrices
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import PARAM_NAMES
@@ -44,8 +45,8 @@ from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.model.urdf import joint_transforms, urdf_joints, urdf_text
 from hand_tracker_ros.ros_io.message_kit import MessageKit
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.overlay import KEYPOINT_PARENTS
-from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 
 BONE_WIDTH_M = 0.003
 JOINT_DIAMETER_M = 0.008

@@ -1,7 +1,7 @@
 """sensor_msgs/Image and CameraInfo <-> numpy, and our SalientPoints message.
 
 The only place (with the nodes) where ROS image messages meet arrays. Decoding goes through
-:func:`hand_tracker_ros.vision.image_codec.image_from_msg`, the one decoder of every path
+:func:`hand_tracker_ros.bags.image_codec.image_from_msg`, the one decoder of every path
 (offline too), which reads rclpy messages as they are. Encoding writes the pixels with
 ``array.array.frombytes`` (one copy): assigning a numpy array to ``msg.data`` iterates element
 by element and costs ~90 ms for a 640x480 image.
@@ -21,9 +21,9 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import Header
 
 from hand_tracker_ros._typing import FloatArray, UInt8Array
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.errors import CalibrationError, HandTrackerError
-from hand_tracker_ros.tracking.observations import SalientDetections
-from hand_tracker_ros.vision.image_codec import image_from_msg
+from hand_tracker_ros.vision.detections import SalientDetections
 
 _ENCODINGS = {(np.dtype(np.uint8), 1): 'mono8', (np.dtype(np.uint8), 3): 'rgb8',
               (np.dtype(np.float32), 1): '32FC1', (np.dtype(np.float32), 2): '32FC2'}

@@ -37,11 +37,11 @@ from hand_tracker_msgs.msg import SalientPoints
 from sensor_msgs.msg import Image
 
 from hand_tracker_ros._typing import BoolArray, Float32Array
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
 from hand_tracker_ros.errors import ImageFormatError, ShapeError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.ros_io.images import detections_from_msg
-from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
-                                                    SalientDetections)
+from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.edges import edge_map_from
 from hand_tracker_ros.vision.features import CameraFeatures
 from hand_tracker_ros.vision.flow import DenseFlow

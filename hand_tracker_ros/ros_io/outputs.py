@@ -15,8 +15,8 @@ from std_msgs.msg import Header
 
 from hand_tracker_ros.ros_io.estimates import header
 from hand_tracker_ros.ros_io.message_kit import RclpyKit
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.sync.approximate import SyncStats
-from hand_tracker_ros.tracking.result import TrackStatus
 
 
 def header_at(stamp_ns: int, frame_id: str) -> Header:

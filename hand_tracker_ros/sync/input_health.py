@@ -4,8 +4,8 @@ Per camera, from the frames that reach the synchronizer and the camera_info mess
 
 - a camera_info whose image size contradicts the rig makes that camera's frames *dropped*
   (tracking with the wrong size would be wrong everywhere) until a consistent one arrives;
-  one whose ``K`` differs from the rig's (relative and absolute tolerance ``K_TOLERANCE``)
-  is only reported, the rig is used;
+  one whose ``K`` differs from the rig's (relative and absolute tolerance ``K_TOLERANCE``;
+  for rig cameras that have a ``K``, i.e. pinhole ones) is only reported, the rig is used;
 - frames without any camera_info for more than ``INFO_GRACE_S`` are reported (the rig's
   intrinsics are used);
 - a camera whose last frame is more than ``SILENT_S`` older than the newest frame of any
@@ -22,7 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 
 INFO_GRACE_S = 2.0
 SILENT_S = 1.0
@@ -34,11 +34,11 @@ class InputHealth:
 
     Parameters
     ----------
-    cameras : sequence of PinholeCamera
-        The rig's cameras the node serves (their names, sizes and ``K``).
+    cameras : sequence of Camera
+        The rig's cameras the node serves (their names, sizes and, for pinhole ones, ``K``).
     """
 
-    def __init__(self, cameras: Sequence[PinholeCamera]) -> None:
+    def __init__(self, cameras: Sequence[Camera]) -> None:
         self._cameras = {c.name: c for c in cameras}
         self._frames: Counter[str] = Counter()
         self._last_frame_s: dict[str, float] = {}
@@ -70,7 +70,8 @@ class InputHealth:
                                       f'says {rig.width}x{rig.height}; dropping {camera} frames')
             return 'error', self._mismatch[camera]
         self._mismatch.pop(camera, None)
-        if not np.allclose(K, rig.K, rtol=K_TOLERANCE, atol=K_TOLERANCE):
+        rig_K = getattr(rig, 'K', None)      # a pinhole camera's matrix; other models: no check
+        if rig_K is not None and not np.allclose(K, rig_K, rtol=K_TOLERANCE, atol=K_TOLERANCE):
             return 'warning', f'{camera}: camera_info K differs from the rig; using the rig'
         return None
 

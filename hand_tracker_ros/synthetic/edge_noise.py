@@ -12,6 +12,8 @@ images of synthetic sequences so that the experiments resemble real data. We mod
 
 Each added pixel gets the orientation of its curve's normal, so an orientation check treats
 clutter like a real edge. The noise is a deterministic function of the rng state.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -34,6 +34,7 @@ from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import FINGERS, PARAM_NAMES, Layout
+from hand_tracker_ros.model.poses import RELAXED_DEG
 from hand_tracker_ros.model.skeleton import joint_limits
 
 MOTIONS = ('tapping', 'fist', 'pinch', 'grasp', 'wrist', 'random')
@@ -41,13 +42,6 @@ MOTIONS = ('tapping', 'fist', 'pinch', 'grasp', 'wrist', 'random')
 # Wrist placement and base orientation of the handshake pose (see the module docstring).
 BASE_TRANSLATION_M = (0.0, -0.085, 0.0)
 BASE_ROTATION_DEG = {'hand_rz': 0.0, 'hand_ry': -90.0, 'hand_rx': 0.0}
-
-# A relaxed hand: joints slightly flexed (deg), ours.
-RELAXED_DEG: dict[str, float] = {
-    'thumb_cmc_flex': 5.0, 'thumb_cmc_abd': 20.0, 'thumb_mcp_flex': 10.0, 'thumb_ip_flex': 10.0,
-    **{f'{f}_{j}': v for f in FINGERS for j, v in (('mcp_flex', 10.0), ('pip_flex', 15.0),
-                                                     ('dip_flex', 8.0))},
-}
 
 
 @dataclass(frozen=True)

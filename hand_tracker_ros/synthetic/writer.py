@@ -18,21 +18,27 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_tracker_ros.bags.convert import (CameraInfoValues, HandStateValues, camera_info_msg,
-                                           compressed_image_msg, hand_state_msg, image_msg,
-                                           joint_state_msg)
 from hand_tracker_ros import topics
+from hand_tracker_ros.bags.convert import (
+    CameraInfoValues,
+    HandStateValues,
+    camera_info_msg,
+    compressed_image_msg,
+    hand_state_msg,
+    image_msg,
+    joint_state_msg,
+)
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.shape import SHAPE_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.progress import progress
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SyntheticFrame, SyntheticSequence
 
 GT_JOINTS_TOPIC = topics.GT_JOINT_STATES.absolute
 GT_STATE_TOPIC = topics.GT_STATE.absolute
-STATUS_TRACKING = 1
 IMAGE_FORMATS = ('raw', 'jpeg', 'png')
 
 
@@ -60,7 +66,8 @@ def ground_truth_state(sequence: SyntheticSequence, frame: SyntheticFrame,
                        world_frame: str) -> HandStateValues:
     """The ground-truth HandState of one frame."""
     return HandStateValues(
-        stamp_ns=frame.stamp_ns, frame_id=world_frame, status=STATUS_TRACKING, confidence=1.0,
+        stamp_ns=frame.stamp_ns, frame_id=world_frame, status=int(TrackStatus.TRACKING),
+        confidence=1.0,
         joint_names=PARAM_NAMES, joint_positions=frame.theta, keypoint_names=KEYPOINT_NAMES,
         keypoints_m=frame.keypoints_m, fingertips_m=frame.fingertips_m,
         shape_names=SHAPE_NAMES, shape_parameters=sequence.model.shape.to_vector(),

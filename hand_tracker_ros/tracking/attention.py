@@ -24,8 +24,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from hand_tracker_ros.config import nested, param
-from hand_tracker_ros.geometry.camera import PinholeCamera
-from hand_tracker_ros.tracking.result import TrackStatus
+from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.roi import RoiConfig, hand_rois
 from hand_tracker_ros.tracking.session import TrackingSession
 
@@ -68,7 +68,7 @@ class ObservationPlan:
 class Attention:
     """Plans each set's observation from the tracking session (module docstring)."""
 
-    def __init__(self, config: AttentionConfig, cameras: Sequence[PinholeCamera]) -> None:
+    def __init__(self, config: AttentionConfig, cameras: Sequence[Camera]) -> None:
         self.config = config
         self.cameras = tuple(cameras)
         self._tracked = 0     # tracked sets planned since the last untracked one

@@ -39,8 +39,8 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.tracking.observations import FrameObservations
-from hand_tracker_ros.tracking.views import ModelView
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.vision.edges import nearest_edges
 from hand_tracker_ros.vision.features import CameraFeatures
 from hand_tracker_ros.vision.visualize import paste_roi

@@ -47,7 +47,8 @@ def hand_rotation(theta: FloatArray) -> FloatArray:
 
 
 def turned(theta: FloatArray, turn: FloatArray, model: HandModel) -> FloatArray:
-    """``theta`` with the hand turned by ``turn`` (3, 3, hand frame) about its keypoint centroid."""
+    """``theta`` with the hand turned by ``turn`` (3, 3, hand frame) about its keypoint
+    centroid."""
     out = np.array(theta, np.float64)
     centre = model.pose(out, jacobian=False).keypoints_m.mean(axis=0)
     neg_rx, neg_rz, neg_ry = euler_xzy_from_matrix((hand_rotation(out) @ turn).T)

@@ -24,12 +24,12 @@ import scipy.ndimage
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
+from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.errors import HandTrackerError
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.synthetic.motions import RELAXED_DEG
+from hand_tracker_ros.model.poses import RELAXED_DEG
 from hand_tracker_ros.tracking.evidence import silhouette_iou
-from hand_tracker_ros.tracking.observations import FrameObservations
 from hand_tracker_ros.tracking.schedule import QUICK, Round
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
@@ -53,7 +53,7 @@ class InitConfig:
     min_mask_px: int = param(50, 'masks smaller than this are ignored', unit='px', low=1)
 
 
-def _view_centre(cameras: Sequence[PinholeCamera]) -> tuple[FloatArray, float]:
+def _view_centre(cameras: Sequence[Camera]) -> tuple[FloatArray, float]:
     """The point closest to every optical axis (m) and the median camera distance to it (m)."""
     A, b = np.zeros((3, 3)), np.zeros(3)
     for camera in cameras:
@@ -65,7 +65,7 @@ def _view_centre(cameras: Sequence[PinholeCamera]) -> tuple[FloatArray, float]:
     return centre, float(np.median([np.linalg.norm(c.center_world - centre) for c in cameras]))
 
 
-def locate_hand(cameras: Sequence[PinholeCamera], masks: Sequence[np.ndarray],
+def locate_hand(cameras: Sequence[Camera], masks: Sequence[np.ndarray],
                 min_px: int, voxel_m: float = 0.01) -> FloatArray:
     """Centre (m), shape (3,), of the largest region every camera sees as foreground.
 

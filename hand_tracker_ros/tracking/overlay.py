@@ -13,10 +13,10 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, UInt8Array
 from hand_tracker_ros.checks import check_shape
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.model.hand import PosedHand
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
-from hand_tracker_ros.tracking.observations import FrameObservations
-from hand_tracker_ros.tracking.views import ModelView
 from hand_tracker_ros.vision.visualize import paste_roi
 
 # Keypoints are the wrist, then four per finger from the base joint to the tip

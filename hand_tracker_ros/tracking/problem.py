@@ -12,33 +12,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.energies.base import Energy
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.energy import Term
+from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.optim.lm import ResidualFunction
-
-
-@dataclass(frozen=True)
-class Term:
-    """An energy term with its weight (cost = 0.5 * weight * |r|^2)."""
-
-    energy: Energy
-    weight: float
-
-    @property
-    def name(self) -> str:
-        """The energy's name."""
-        return self.energy.name
 
 
 class Problem:
     """Weighted terms over the pose of one hand model."""
 
-    def __init__(self, model: Any, terms: Sequence[Term]) -> None:
+    def __init__(self, model: HandModel, terms: Sequence[Term]) -> None:
         self.model = model
         self.terms = tuple(t for t in terms if t.weight > 0.0)
 
@@ -47,11 +34,11 @@ class Problem:
         """Names of the active terms, in stacking order."""
         return tuple(t.name for t in self.terms)
 
-    def correspond(self, context: Any) -> tuple[Any, ...]:
+    def correspond(self, context: RoundContext) -> tuple[object, ...]:
         """Correspondences of every term for one round."""
         return tuple(t.energy.correspond(context) for t in self.terms)
 
-    def function(self, correspondences: Sequence[Any]) -> ResidualFunction:
+    def function(self, correspondences: Sequence[object]) -> ResidualFunction:
         """The stacked residual function of one round, for :func:`levenberg_marquardt`."""
         scales = [math.sqrt(t.weight) for t in self.terms]
         # Skin with the Jacobian only the vertices some row reads (a third of the mesh).
@@ -77,7 +64,7 @@ class Problem:
 
         return fun
 
-    def costs(self, theta: FloatArray, correspondences: Sequence[Any]) -> dict[str, float]:
+    def costs(self, theta: FloatArray, correspondences: Sequence[object]) -> dict[str, float]:
         """Per-term cost ``0.5 * w * |r|^2`` at ``theta``."""
         posed = self.model.pose(theta, jacobian=False)
         return {t.name: 0.5 * t.weight * float(np.sum(t.energy.residuals(posed, c) ** 2))

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_tracker_ros.config import param
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.hand import PosedHand
 
 
@@ -27,7 +27,7 @@ class RoiConfig:
                            unit='px', low=0, high=10000)
 
 
-def hand_rois(posed: PosedHand, cameras: Sequence[PinholeCamera],
+def hand_rois(posed: PosedHand, cameras: Sequence[Camera],
               config: RoiConfig = RoiConfig()) -> list[tuple[int, int, int, int] | None]:
     """Per camera, the half-open box ``(u0, v0, u1, v1)`` in px around ``posed``; None
     (the whole image) for a camera the model does not project into."""

@@ -12,6 +12,8 @@ benchmark (``--seed 1``, the full method, mean 3D joint error): 2.37 mm, against
 for 1+3x4 at one more round's cost, 2.65 mm for 0+3x4, and 8.49 mm for 0+2x4, which loses
 the random sequence (19.9 mm, 89 failed frames); 0+2x6 recovers it only partly (3.88 mm).
 Three rounds are the fewest that keep every sequence tracked.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

@@ -19,29 +19,30 @@ step Tzionas et al. (IJCV 2016) add to Ballan's tracker. The anchor weight ``w_A
 (1e5: 1 cm of keypoint motion costs 5, one cone constraint a cone height deep 1.5e3), so the
 collision terms win wherever they are active, and the anchor only chooses among the poses that
 resolve them. Constraints of the frame's earlier rounds are kept (see
-:class:`~hand_tracker_ros.tracking.views.RoundContext`), so a round cannot slide a finger back
+:class:`~hand_tracker_ros.core.context.RoundContext`), so a round cannot slide a finger back
 into a contact an earlier one resolved.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
-from hand_tracker_ros.energies.collision import CollisionPairs
+from hand_tracker_ros.core.context import CollisionPairs, RoundContext
+from hand_tracker_ros.core.energy import Term
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.energies.registry import SEPARATION_TERMS
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy, TemporalTarget
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
-from hand_tracker_ros.tracking.observations import FrameObservations
-from hand_tracker_ros.tracking.problem import Problem, Term
-from hand_tracker_ros.tracking.views import RoundContext
-
-COLLISION_TERMS = ('collision', 'volume')
+from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
+from hand_tracker_ros.tracking.problem import Problem
 
 
 @dataclass(frozen=True)
@@ -64,9 +65,10 @@ class SeparationResult:
     """Outcome of :meth:`Separator.separate`."""
 
     theta: FloatArray                  # (P,)
-    posed: Any                         # the hand posed at ``theta`` (no Jacobian)
+    posed: PosedHand                   # the hand posed at ``theta`` (no Jacobian)
     rounds: int                        # separation rounds run
     iterations: int                    # LM iterations over them
+    statuses: tuple[FitStatus, ...] = ()  # why each round's LM call stopped
 
 
 class Separator:
@@ -76,19 +78,20 @@ class Separator:
     ----------
     model : HandModel
     terms : sequence of Term
-        The tracker's enabled terms; the ones named in ``COLLISION_TERMS`` are used.
+        The tracker's enabled terms; the ones named in ``SEPARATION_TERMS`` are used.
     config : SeparationConfig
     lm : LMConfig
-        Settings of each round's Levenberg-Marquardt call, but for the iteration count
-        (``config.iterations``).
+        Settings of each round's Levenberg-Marquardt call; it runs ``config.iterations``,
+        capped by ``lm.max_iterations``.
     """
 
-    def __init__(self, model: Any, terms: Sequence[Term], config: SeparationConfig,
+    def __init__(self, model: HandModel, terms: Sequence[Term], config: SeparationConfig,
                  lm: LMConfig) -> None:
         self.model = model
         self.config = config
-        self.lm = dataclasses.replace(lm, max_iterations=config.iterations)
-        self._terms = [t for t in terms if t.name in COLLISION_TERMS]
+        self.lm = dataclasses.replace(lm, max_iterations=min(config.iterations,
+                                                             lm.max_iterations))
+        self._terms = [t for t in terms if t.name in SEPARATION_TERMS]
         self._collision = next((t.energy for t in self._terms if t.name == 'collision'), None)
         anchor = TemporalEnergy(TemporalConfig(mode='damping'), model.rest,
                                 model.keypoint_local_m)
@@ -100,6 +103,7 @@ class Separator:
         posed = self.model.pose(theta, jacobian=False)
         anchor = TemporalTarget(posed.keypoints_m)
         n_rounds = iterations = 0
+        statuses: list[FitStatus] = []
         for _ in range(self.config.rounds if self._collision is not None else 0):
             context = RoundContext(posed, (), FrameObservations(0, ()), None, collisions)
             collisions = self._collision.correspond(context)
@@ -118,4 +122,5 @@ class Separator:
             posed = self.model.pose(theta, jacobian=False)
             n_rounds += 1
             iterations += result.n_iterations
-        return SeparationResult(theta, posed, n_rounds, iterations)
+            statuses.append(result.status)
+        return SeparationResult(theta, posed, n_rounds, iterations, tuple(statuses))

@@ -31,11 +31,12 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.core.result import TrackResult
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
 from hand_tracker_ros.tracking.hypotheses import constant_velocity, turned_hypotheses
 from hand_tracker_ros.tracking.initialize import InitConfig, initialize
-from hand_tracker_ros.tracking.observations import FrameObservations
-from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
@@ -161,7 +162,8 @@ class TrackingSession:
         fit = judged.fit
         return TrackResult(observations.stamp_ns, status, fit.theta, fit.posed, iterations,
                            fit.energy_costs, judged.confidence, judged.evidence, timings,
-                           fit.labels, '' if judged.name == 'previous' else judged.name)
+                           fit.labels, '' if judged.name == 'previous' else judged.name,
+                           lm_statuses=fit.lm_statuses)
 
     @property
     def _can_start(self) -> bool:
@@ -208,8 +210,8 @@ class TrackingSession:
                  timings: dict[str, float]) -> tuple[_Judged, int]:
         """The most confident of ``first`` and the fits from the recovery hypotheses.
 
-        Each hypothesis gets one short round (:data:`.schedule.QUICK`); only the most confident of them
-        is then fitted with the full schedule, and it replaces ``first`` if it is more
+        Each hypothesis gets one short round (:data:`.schedule.QUICK`); only the most confident
+        of them is then fitted with the full schedule, and it replaces ``first`` if it is more
         confident.
         """
         model = self.tracker.model

@@ -13,31 +13,34 @@ apart.
 A fit changes nothing in the tracker: :meth:`HandTracker.accept` makes it the previous frame
 of the next one. Whether to accept it, and when to look for the hand elsewhere, is the
 tracking session's policy (:mod:`.session`).
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
-from hand_tracker_ros.energies.collision import CollisionPairs
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.core.context import CollisionPairs, PreviousFrame, RoundContext
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.core.views import ModelView, model_views
+from hand_tracker_ros.energies import flow
+from hand_tracker_ros.energies.registry import TermsConfig, build_terms
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
+from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
 from hand_tracker_ros.optim.pso import PSOConfig, particle_swarm
 from hand_tracker_ros.render.contours import MeshEdges
-from hand_tracker_ros.tracking.energies import TermsConfig, build_terms
-from hand_tracker_ros.tracking.observations import FrameObservations
 from hand_tracker_ros.tracking.problem import Problem
 from hand_tracker_ros.tracking.schedule import Round, ScheduleConfig, rounds
 from hand_tracker_ros.tracking.separation import SeparationConfig, Separator
-from hand_tracker_ros.tracking.views import ModelView, PreviousFrame, RoundContext, model_views
 
 
 @dataclass(frozen=True)
@@ -69,10 +72,15 @@ class Fit:
         LM iterations over all rounds and separation rounds.
     energy_costs : dict of str to float
         ``0.5 * w * |r|^2`` per term at the estimate, with the last round's correspondences.
-    labels : tuple
-        Per camera: detection -> finger (-1 unassigned), from the salient term.
+    labels : tuple of tuple
+        The ``labels`` of every round correspondence that has them, in term order (the
+        salient term: per camera, detection -> finger, -1 unassigned; the limits term: the
+        active constraints).
     timings_s : dict of str to float
         Wall time of each stage (s).
+    lm_statuses : tuple of FitStatus
+        Why each Levenberg-Marquardt call stopped, in order: the rounds, then the separation
+        rounds (empty for PSO).
     """
 
     theta: FloatArray
@@ -80,21 +88,22 @@ class Fit:
     views: tuple[ModelView, ...]
     iterations: int
     energy_costs: dict[str, float]
-    labels: tuple[Any, ...] = ()
+    labels: tuple[tuple[object, ...], ...] = ()
     timings_s: dict[str, float] = field(default_factory=dict)
+    lm_statuses: tuple[FitStatus, ...] = ()
 
 
 class HandTracker:
     """Tracks one hand through a sequence of frame sets."""
 
-    def __init__(self, model: HandModel, cameras: Sequence[PinholeCamera],
+    def __init__(self, model: HandModel, cameras: Sequence[Camera],
                  config: TrackerConfig = TrackerConfig()) -> None:
         self.model = model
         self.cameras = tuple(cameras)
         self.config = config
         self._edges = MeshEdges.from_faces(model.faces)
         self._terms = build_terms(config.terms, model)
-        self._separator = Separator(model, self._terms, config.separation, self._lm_config())
+        self._separator = Separator(model, self._terms, config.separation, config.lm)
         self._rounds = rounds(config.schedule)
         self._previous: PreviousFrame | None = None
 
@@ -119,13 +128,13 @@ class HandTracker:
     def _solve_round(self, theta: FloatArray, free: np.ndarray, use_flow: bool,
                      observations: FrameObservations, timings: dict[str, float],
                      start_views: tuple[ModelView, ...] | None,
-                     collisions: CollisionPairs | None
-                     ) -> tuple[FloatArray, int, Problem, tuple[Any, ...]]:
+                     collisions: CollisionPairs | None, statuses: list[FitStatus]
+                     ) -> tuple[FloatArray, int, Problem, tuple[object, ...]]:
         start = time.perf_counter()
         posed = self.model.pose(theta, jacobian=False)
         views = start_views if start_views is not None else self.views(posed)
         context = RoundContext(posed, views, observations, self._previous, collisions)
-        terms = [t for t in self._terms if use_flow or t.name != 'flow']
+        terms = [t for t in self._terms if use_flow or t.name != flow.NAME]
         problem = Problem(self.model, terms)
         mid = time.perf_counter()
         correspondences = []
@@ -140,15 +149,17 @@ class HandTracker:
                                      self.model.lower, self.model.upper, free=free,
                                      config=self._lm_config(), angular=Layout.revolute)
         timings['solve'] = timings.get('solve', 0.0) + time.perf_counter() - t0
+        statuses.append(result.status)
         return result.x, result.n_iterations, problem, tuple(correspondences)
 
     def _solve_pso(self, theta: FloatArray, observations: FrameObservations,
-                   timings: dict[str, float]) -> tuple[FloatArray, int, Problem, tuple[Any, ...]]:
+                   timings: dict[str, float]
+                   ) -> tuple[FloatArray, int, Problem, tuple[object, ...]]:
         """The HOPE baseline: PSO on the same objective, re-anchored every generation."""
         problem = Problem(self.model, self._terms)
-        anchor_corrs: list[tuple[Any, ...]] = []
+        anchor_corrs: list[tuple[object, ...]] = []
 
-        def cost_at(anchor: FloatArray) -> Any:
+        def cost_at(anchor: FloatArray) -> Callable[[FloatArray], FloatArray]:
             posed = self.model.pose(anchor, jacobian=False)
             context = RoundContext(posed, self.views(posed), observations, self._previous)
             anchor_corrs.append(problem.correspond(context))
@@ -164,10 +175,10 @@ class HandTracker:
         return result.x, result.evaluations, problem, anchor_corrs[-1]
 
     def _lm_config(self) -> LMConfig:
+        """The LM settings of a round: ``schedule.iterations``, capped by ``lm.max_iterations``."""
         lm = self.config.lm
-        return LMConfig(max_iterations=self.config.schedule.iterations, tau=lm.tau,
-                        ftol=lm.ftol, xtol=lm.xtol, max_mean_step_rad=lm.max_mean_step_rad,
-                        max_damping=lm.max_damping)
+        return dataclasses.replace(lm, max_iterations=min(self.config.schedule.iterations,
+                                                          lm.max_iterations))
 
     def fit(self, observations: FrameObservations, start: FloatArray | None = None, *,
             plan: Sequence[Round] | None = None, separate: bool = True,
@@ -192,6 +203,7 @@ class HandTracker:
                  else np.clip(np.asarray(start, np.float64), self.model.lower, self.model.upper))
         theta = theta.copy()
         iterations = 0
+        statuses: list[FitStatus] = []
         problem, correspondences = None, ()
         if self.config.solver == 'pso':
             theta, iterations, problem, correspondences = self._solve_pso(theta, observations,
@@ -206,7 +218,8 @@ class HandTracker:
                 break
             round_start = time.monotonic()
             theta, n_iter, problem, correspondences = self._solve_round(
-                theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions)
+                theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions,
+                statuses)
             collisions = dict(zip(problem.names, correspondences)).get('collision')
             start_views = None
             iterations += n_iter
@@ -217,6 +230,7 @@ class HandTracker:
             timings['separation'] = time.perf_counter() - t0
             theta, posed = separated.theta, separated.posed
             iterations += separated.iterations
+            statuses += separated.statuses
         else:
             posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
@@ -227,7 +241,7 @@ class HandTracker:
                        if hasattr(c, 'labels'))
         costs = problem.costs(theta, correspondences)
         timings['fit'] = time.perf_counter() - begin
-        return Fit(theta, posed, views, iterations, costs, labels, timings)
+        return Fit(theta, posed, views, iterations, costs, labels, timings, tuple(statuses))
 
     def accept(self, fit: Fit) -> None:
         """Make ``fit`` the previous frame of the next fit (the temporal history grows)."""

@@ -5,7 +5,7 @@ A :class:`FeatureExtractor` holds one camera's state between frames: the previou
 :meth:`~FeatureExtractor.reset` or an image size change, the next frame has no flow.
 
 Features can be computed only in a region of interest ``roi_px = (u0, v0, u1, v1)`` (e.g. the
-predicted hand box plus a margin), which perf-notes measured 4-5x cheaper at 640x480. The
+predicted hand box plus a margin), measured 4-5x cheaper at 640x480 (bench/bench_features.py). The
 maps then cover that box only; every coordinate going in or out of ``EdgeMap``, the flow and
 :meth:`CameraFeatures.mask_at` stays a full-image one. Flow compares the same box cut from
 the previous and current frames, so it is valid even when the box moves.
@@ -14,7 +14,7 @@ the previous and current frames, so it is valid even when the box moves.
 so plain threads run cameras in parallel. cv2's own threading is turned down to 1 thread
 (process-wide: ``cv2.setNumThreads`` is global): Canny, Sobel and the distance transform are
 single-threaded anyway, and on 2 cores one camera per worker measured 1.6-2x faster than
-cv2 splitting each call (perf-notes section 7), because nested parallelism only adds
+cv2 splitting each call (bench/bench_features.py), because nested parallelism only adds
 synchronisation when every core is already busy with a camera.
 """
 from __future__ import annotations
@@ -29,12 +29,12 @@ import numba
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray, UInt8Array
-from hand_tracker_ros.checks import check_finite, check_shape
+from hand_tracker_ros.checks import check_finite, check_rgb, check_shape
 from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.errors import ConfigError, ShapeError
 from hand_tracker_ros.vision.edges import EdgeConfig, EdgeMap, compute_edges
 from hand_tracker_ros.vision.flow import FlowConfig, FlowEstimator, FlowField
-from hand_tracker_ros.vision.image import check_rgb, clip_roi, to_gray
+from hand_tracker_ros.vision.image import clip_roi, to_gray
 from hand_tracker_ros.vision.mask import ForegroundMasker, MaskConfig
 
 

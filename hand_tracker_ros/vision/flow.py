@@ -20,12 +20,13 @@ are full-image ones, and a flow computed in a region of interest carries the ful
 
 A DIS object is stateful and not re-entrant: each :class:`FlowEstimator` owns one, so use one
 estimator per camera/thread.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Union
 import math
+from dataclasses import dataclass
 
 import cv2
 import numba
@@ -199,7 +200,7 @@ class SparseFlow:
         return out, valid
 
 
-FlowField = Union[DenseFlow, SparseFlow]
+FlowField = DenseFlow | SparseFlow
 
 
 class FlowEstimator:

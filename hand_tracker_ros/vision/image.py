@@ -1,63 +1,18 @@
-"""Checks and helpers for the one image type the vision core works with: ``(H, W, 3) uint8`` RGB.
+"""Helpers for the one image type the vision core works with: ``(H, W, 3) uint8`` RGB.
 
-Decoding camera messages into that type is :mod:`hand_tracker_ros.vision.image_codec`.
+Its checks (:func:`~hand_tracker_ros.checks.check_rgb`) live in :mod:`hand_tracker_ros.checks`.
+
+Decoding camera messages into that type is :mod:`hand_tracker_ros.bags.image_codec`.
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 import cv2
-import numpy as np
 
 from hand_tracker_ros._typing import UInt8Array
+from hand_tracker_ros.checks import check_rgb
 from hand_tracker_ros.errors import ImageFormatError
-
-
-def check_image_size(camera_name: str, width: int, height: int,
-                     expected_size_px: tuple[int, int] | None) -> None:
-    """Raise :class:`ImageFormatError` if the image size contradicts ``expected_size_px``.
-
-    Parameters
-    ----------
-    camera_name : str
-        Used in the message.
-    width, height : int
-        Image size in px.
-    expected_size_px : (int, int) or None
-        ``(width, height)`` from the camera calibration (camera_info); None skips the check.
-    """
-    if expected_size_px is None:
-        return
-    exp_w, exp_h = expected_size_px
-    if (width, height) != (exp_w, exp_h):
-        msg = (f'{camera_name}: image is {width}x{height} but camera_info says '
-               f'{exp_w}x{exp_h}')
-        raise ImageFormatError(msg)
-
-
-def check_rgb(name: str, image_rgb: np.ndarray,
-              size_px: Sequence[int] | None = None) -> None:
-    """Raise :class:`ImageFormatError` unless ``image_rgb`` is an ``(H, W, 3) uint8`` array.
-
-    Parameters
-    ----------
-    name : str
-        Argument or camera name used in the message.
-    image_rgb : ndarray
-        Candidate image.
-    size_px : (int, int), optional
-        Required ``(width, height)``.
-    """
-    if not isinstance(image_rgb, np.ndarray):
-        msg = f'{name}: expected an (H, W, 3) uint8 array, got {type(image_rgb).__name__}'
-        raise ImageFormatError(msg)
-    if image_rgb.ndim != 3 or image_rgb.shape[2] != 3 or image_rgb.dtype != np.uint8:
-        msg = (f'{name}: expected an (H, W, 3) uint8 RGB image, got shape '
-               f'{image_rgb.shape} dtype {image_rgb.dtype}')
-        raise ImageFormatError(msg)
-    if size_px is not None:
-        check_image_size(name, image_rgb.shape[1], image_rgb.shape[0],
-                         (int(size_px[0]), int(size_px[1])))
 
 
 def clip_roi(name: str, roi_px: Sequence[int] | None, width: int, height: int

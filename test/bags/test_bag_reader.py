@@ -8,10 +8,10 @@ import pytest
 import yaml
 
 from hand_tracker_ros.bags import convert
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.errors import BagFormatError
-from hand_tracker_ros.vision.image_codec import image_from_msg
 
 STORAGES = ['mcap', 'sqlite3']
 
@@ -20,7 +20,8 @@ def _check_frame(samples, i, decoded):
     """Compare the decoded messages of frame ``i`` (topic -> msg) with the written values."""
     stamp = samples.T0_NS + i * samples.PERIOD_NS
     image = decoded['/cam0/image_raw']
-    np.testing.assert_array_equal(image_from_msg(image, source='/cam0/image_raw'), samples.image(i))
+    np.testing.assert_array_equal(image_from_msg(image, source='/cam0/image_raw'),
+                                  samples.image(i))
     assert convert.stamp_ns_of(image.header) == stamp
     info = convert.camera_info_from_msg(decoded['/cam0/camera_info'])
     np.testing.assert_array_equal(info.K, samples.camera_info(stamp).K)

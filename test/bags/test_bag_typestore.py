@@ -10,8 +10,7 @@ import pytest
 import yaml
 from rosbags.highlevel import AnyReader
 
-from hand_tracker_ros.bags.typestore import (MSG_NAMES, find_msg_dir, msg_dir_candidates,
-                                             typestore)
+from hand_tracker_ros.bags.typestore import MSG_NAMES, find_msg_dir, msg_dir_candidates, typestore
 from hand_tracker_ros.errors import BagFormatError
 
 HAND_STATE = 'hand_tracker_msgs/msg/HandState'
@@ -99,7 +98,7 @@ def test_find_msg_dir_error_lists_searched_dirs(tmp_path):
 def test_our_tf2_msgs_definition_is_the_real_tfmessage():
     """msg_defs/tf2_msgs (built where PyPI has no tf2_msgs) has the hash of ROS 2's TFMessage,
     so real /tf listeners and bag tools take it."""
-    from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     text = (Path(__file__).resolve().parents[2] / 'msg_defs' / 'tf2_msgs' / 'msg' /
             'TFMessage.msg').read_text()

@@ -6,8 +6,15 @@ import math
 import numpy as np
 import pytest
 
-from hand_tracker_ros.energies.edges import (EdgeEnergy, EdgeEnergyConfig, reject_outliers,
-                                             search_edges)
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
+from hand_tracker_ros.core.views import model_views
+from hand_tracker_ros.energies.edges import (
+    EdgeEnergy,
+    EdgeEnergyConfig,
+    reject_outliers,
+    search_edges,
+)
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
@@ -15,9 +22,7 @@ from hand_tracker_ros.render.background import make_background
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.render.rasterizer import render
 from hand_tracker_ros.render.shading import render_rgb
-from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
-                                                    SalientDetections)
-from hand_tracker_ros.tracking.views import RoundContext, model_views
+from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.edges import EdgeMap
 from hand_tracker_ros.vision.features import FeatureExtractor, FeaturesConfig
 from hand_tracker_ros.vision.mask import MaskConfig

@@ -7,8 +7,16 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.config import from_mapping
-from hand_tracker_ros.energies.flow import (FlowCorrespondences, FlowEnergy, FlowEnergyConfig,
-                                            reject_bone_outliers, stride_subsample)
+from hand_tracker_ros.core.context import PreviousFrame, RoundContext
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
+from hand_tracker_ros.core.views import model_views
+from hand_tracker_ros.energies.flow import (
+    FlowCorrespondences,
+    FlowEnergy,
+    FlowEnergyConfig,
+    reject_bone_outliers,
+    stride_subsample,
+)
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.layout import PARAM_NAMES, P
@@ -16,9 +24,7 @@ from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
 from hand_tracker_ros.render.background import make_background
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.render.shading import render_rgb
-from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
-                                                    SalientDetections)
-from hand_tracker_ros.tracking.views import PreviousFrame, RoundContext, model_views
+from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.features import FeatureExtractor, FeaturesConfig
 from hand_tracker_ros.vision.flow import DenseFlow, FlowConfig, SparseFlow
 

@@ -4,16 +4,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hand_tracker_ros.energies.joint_limits import (JointLimitsConfig, JointLimitsEnergy,
-                                                    fit_plane_normal, local_angles,
-                                                    local_rotation)
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.energies.joint_limits import (
+    JointLimitsConfig,
+    JointLimitsEnergy,
+    fit_plane_normal,
+    local_angles,
+    local_rotation,
+)
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.geometry.rotations import rot_x, rot_y, rot_z
 from hand_tracker_ros.model.layout import Layout, P
 from hand_tracker_ros.model.skeleton import joint_limits
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
-from hand_tracker_ros.tracking.observations import FrameObservations
-from hand_tracker_ros.tracking.views import RoundContext
 
 DEG = np.pi / 180.0
 # The tracker may run LM with bounds wider than the anatomical table: this term holds them.

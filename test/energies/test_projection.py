@@ -6,8 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from hand_tracker_ros.energies._projection import (ImageTargets, image_linearize,
-                                                   image_residuals)
+from hand_tracker_ros.energies._projection import ImageTargets, image_linearize, image_residuals
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.transforms import look_at
@@ -124,3 +123,28 @@ def test_targets_reject_inconsistent_shapes() -> None:
                      np.zeros((3, 2)))
     with pytest.raises(ShapeError, match='sqrt_weights'):
         ImageTargets(camera, np.zeros(2, np.int64), np.zeros((2, 2)), np.array([1.0, np.nan]))
+
+
+class _OtherModel:
+    """A camera that is not a PinholeCamera (the Camera protocol only): the generic path."""
+
+    def __init__(self, camera: PinholeCamera) -> None:
+        self._camera = camera
+
+    def __getattr__(self, name: str):
+        return getattr(self._camera, name)
+
+
+@pytest.mark.parametrize('line', [False, True])
+def test_any_camera_model_gives_the_pinhole_rows(line: bool) -> None:
+    """The rows through ``Camera.project_jacobian`` equal the fused pinhole kernel's."""
+    stub, camera = _Stub(6), _camera()
+    posed = stub.pose(np.array([0.1, 0.2, 0.3, 0.4]))
+    fused = _blocks(camera, line)
+    generic = [ImageTargets(_OtherModel(b.camera), b.vertex_ids, b.targets_px, b.sqrt_weights,
+                            b.normals_px) for b in fused]
+    r, J = image_linearize(posed, fused)
+    r_any, J_any = image_linearize(posed, generic)
+    np.testing.assert_allclose(r_any, r, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(J_any, J, rtol=1e-10, atol=1e-10 * np.abs(J).max())
+    np.testing.assert_allclose(image_residuals(posed, generic), r, rtol=1e-12, atol=1e-12)

@@ -5,16 +5,21 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.config import from_mapping
-from hand_tracker_ros.energies.salient import (SalientConfig, SalientCorrespondences,
-                                               SalientEnergy, assign_detections)
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
+from hand_tracker_ros.core.views import model_views
+from hand_tracker_ros.energies.salient import (
+    SalientConfig,
+    SalientCorrespondences,
+    SalientEnergy,
+    assign_detections,
+)
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.layout import PARAM_NAMES, P
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
 from hand_tracker_ros.render.contours import MeshEdges
-from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
-                                                    SalientDetections)
-from hand_tracker_ros.tracking.views import RoundContext, model_views
+from hand_tracker_ros.vision.detections import SalientDetections
 
 TIPS = np.array([[50.0, 50.0], [80.0, 40.0], [110.0, 38.0], [140.0, 45.0], [165.0, 60.0]])
 

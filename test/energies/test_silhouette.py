@@ -6,8 +6,15 @@ import numpy as np
 import pytest
 import scipy.spatial
 
-from hand_tracker_ros.energies.silhouette import (SilhouetteConfig, SilhouetteEnergy,
-                                                  nearest_point, outside_targets)
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
+from hand_tracker_ros.core.views import model_views
+from hand_tracker_ros.energies.silhouette import (
+    SilhouetteConfig,
+    SilhouetteEnergy,
+    nearest_point,
+    outside_targets,
+)
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.layout import PARAM_NAMES
@@ -16,9 +23,7 @@ from hand_tracker_ros.render.background import make_background
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.render.rasterizer import render
 from hand_tracker_ros.render.shading import render_rgb
-from hand_tracker_ros.tracking.observations import (CameraObservation, FrameObservations,
-                                                    SalientDetections)
-from hand_tracker_ros.tracking.views import RoundContext, model_views
+from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.features import CameraFeatures, FeatureExtractor, FeaturesConfig
 from hand_tracker_ros.vision.mask import MaskConfig
 

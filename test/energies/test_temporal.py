@@ -5,12 +5,12 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.config import from_mapping
+from hand_tracker_ros.core.context import PreviousFrame, RoundContext
+from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy
 from hand_tracker_ros.errors import ConfigError, ShapeError
 from hand_tracker_ros.model.layout import P
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
-from hand_tracker_ros.tracking.observations import FrameObservations
-from hand_tracker_ros.tracking.views import PreviousFrame, RoundContext
 
 
 @pytest.fixture(scope='module')

@@ -5,15 +5,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.energies.collision import CollisionConfig, CollisionEnergy
-from hand_tracker_ros.energies.volume_collision import (VolumeCollisionConfig,
-                                                        VolumeCollisionEnergy, sample_balls)
-from hand_tracker_ros.geometry.triangle_pairs import (face_parts, intersecting_pairs,
-                                                      max_interpenetration_m)
+from hand_tracker_ros.energies.volume_collision import (
+    VolumeCollisionConfig,
+    VolumeCollisionEnergy,
+    sample_balls,
+)
+from hand_tracker_ros.geometry.triangle_pairs import (
+    face_parts,
+    intersecting_pairs,
+    max_interpenetration_m,
+)
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.optim.lm import LMConfig
 from hand_tracker_ros.synthetic.motions import trajectory
-from hand_tracker_ros.tracking.problem import Term
 from hand_tracker_ros.tracking.separation import SeparationConfig, Separator
 
 
@@ -85,8 +91,8 @@ def test_separation_rounds_push_crossed_fingers_apart(hand_model) -> None:
     assert _depth_mm(hand_model, theta) > 5.0
     terms = [Term(CollisionEnergy.from_model(CollisionConfig(), hand_model), 3e3),
              Term(VolumeCollisionEnergy.from_model(VolumeCollisionConfig(), hand_model), 1e10)]
-    separator = Separator(hand_model, terms, SeparationConfig(rounds=5),
-                          LMConfig(max_iterations=4))
+    # The tracker's LM settings: separation.iterations, capped by lm.max_iterations (10).
+    separator = Separator(hand_model, terms, SeparationConfig(rounds=5), LMConfig())
     result = separator.separate(theta, None)
     assert 1 <= result.rounds <= 5
     assert _depth_mm(hand_model, result.theta) < 0.5
@@ -123,7 +129,7 @@ def test_separation_rounds_have_iterations_enough_for_the_stiff_terms(hand_model
     depth = {}
     for iterations in (4, SeparationConfig().iterations):
         separator = Separator(hand_model, terms, SeparationConfig(iterations=iterations),
-                              LMConfig(max_iterations=4))
+                              LMConfig())
         depth[iterations] = _depth_mm(hand_model,
                                       separator.separate(_SHALLOW_CONTACT, None).theta)
     # LM rejects its first, lightly damped steps on these residuals: 4 per round never move.

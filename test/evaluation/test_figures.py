@@ -8,8 +8,13 @@ import cv2
 import numpy as np
 import pytest
 
-from hand_tracker_ros.evaluation.figures import (error_figure, error_plot, labelled_grid,
-                                                 overlay_grid, row_caption)
+from hand_tracker_ros.evaluation.figures import (
+    error_figure,
+    error_plot,
+    labelled_grid,
+    overlay_grid,
+    row_caption,
+)
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence

@@ -4,8 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hand_tracker_ros.evaluation.robustness import (CaseRun, episodes, run_suite, scores,
-                                                    table)
+from hand_tracker_ros.evaluation.robustness import CaseRun, episodes, run_suite, scores, table
 
 
 def test_episodes_run_from_over_15_mm_to_back_under_10_mm() -> None:

@@ -8,9 +8,9 @@ import pytest
 
 from hand_tracker_ros.evaluation.replay import replay
 from hand_tracker_ros.model.layout import Layout
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
-from hand_tracker_ros.tracking.result import TrackStatus
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 JUMP_AT, JUMP_M = 12, 0.09

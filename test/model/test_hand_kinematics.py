@@ -6,8 +6,8 @@ import pytest
 
 from hand_tracker_ros.geometry.rotations import rot_x, rot_y, rot_z
 from hand_tracker_ros.model.kinematics import forward_kinematics
-from hand_tracker_ros.model.layout import Layout, PARAM_NAMES
-from hand_tracker_ros.model.skeleton import B, BONE_NAMES, FINGER_NAMES, KEYPOINT_NAMES
+from hand_tracker_ros.model.layout import PARAM_NAMES, Layout
+from hand_tracker_ros.model.skeleton import BONE_NAMES, FINGER_NAMES, KEYPOINT_NAMES, B
 
 
 def test_layout_names_and_masks() -> None:

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-
 import trimesh
 
 from hand_tracker_ros.model.hand import HandModel
@@ -10,8 +9,11 @@ from hand_tracker_ros.model.kinematics import rest_transforms
 from hand_tracker_ros.model.mesh import build_surface
 from hand_tracker_ros.model.shape import HandShape
 from hand_tracker_ros.model.skeleton import BONE_PARENTS, rest_skeleton
-from hand_tracker_ros.model.spheremesh import (build_sphere_mesh, part_distances,
-                                               round_cone_distance)
+from hand_tracker_ros.model.spheremesh import (
+    build_sphere_mesh,
+    part_distances,
+    round_cone_distance,
+)
 
 
 def test_round_cone_distance_matches_sampled_balls() -> None:

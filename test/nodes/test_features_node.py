@@ -99,7 +99,7 @@ def test_features_node_reads_the_compressed_transport(node_process, ros, hand_mo
     from rclpy.qos import qos_profile_sensor_data
     from sensor_msgs.msg import CompressedImage, Image
 
-    from hand_tracker_ros.vision.image_codec import compress_rgb
+    from hand_tracker_ros.bags.image_codec import compress_rgb
 
     node, spin_until = ros
     features = node_process('features', '-p', 'cameras:=[cam0]',

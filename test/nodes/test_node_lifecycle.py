@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from hand_tracker_ros.ament import executable
-from hand_tracker_ros.cli.launch import NODES, graph_specs
+from hand_tracker_ros.cli.launch import graph_specs
+from hand_tracker_ros.graph_nodes import NODES
 from hand_tracker_ros.launcher import GRAPH_MODES, ProcessGroup
 
 pytestmark = pytest.mark.ros

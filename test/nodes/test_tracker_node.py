@@ -15,8 +15,8 @@ import time
 import numpy as np
 import pytest
 
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
-from hand_tracker_ros.tracking.result import TrackStatus
 
 pytestmark = pytest.mark.ros
 PUBLISH_PERIOD_S = 0.5
@@ -57,8 +57,7 @@ def test_tracker_follows_a_synthetic_sequence(node_process, ros, hand_model, tmp
                                               inputs: str) -> None:
     from diagnostic_msgs.msg import DiagnosticArray
     from hand_tracker_msgs.msg import HandState
-    from rclpy.qos import qos_profile_sensor_data
-    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
     from sensor_msgs.msg import CameraInfo, Image, JointState
     from std_msgs.msg import String
     from tf2_msgs.msg import TFMessage

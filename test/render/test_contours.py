@@ -6,8 +6,7 @@ import numpy as np
 import trimesh
 
 from hand_tracker_ros.geometry.rig import CameraRig
-from hand_tracker_ros.render.contours import (MeshEdges, contour_points, edge_image,
-                                              front_facing)
+from hand_tracker_ros.render.contours import MeshEdges, contour_points, edge_image, front_facing
 from hand_tracker_ros.render.rasterizer import render
 
 

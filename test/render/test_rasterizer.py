@@ -6,8 +6,13 @@ import cv2
 import numpy as np
 import pytest
 import trimesh
-from ray_oracle import (occlusion_by_rays, occlusion_by_rays_trimesh, random_parts_mesh,
-                        ray_cast, ray_cast_trimesh)
+from ray_oracle import (
+    occlusion_by_rays,
+    occlusion_by_rays_trimesh,
+    random_parts_mesh,
+    ray_cast,
+    ray_cast_trimesh,
+)
 from scipy.spatial.transform import Rotation
 
 from hand_tracker_ros.errors import ShapeError

@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.node_config import NEUTRAL_POSE
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.overlay import KEYPOINT_PARENTS, draw_overlay
-from hand_tracker_ros.tracking.result import TrackResult, TrackStatus
 
 pytestmark = pytest.mark.ros
 STAMP_NS = 1_700_000_123_456_789_012

@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.errors import ConfigError
-from hand_tracker_ros.sync.approximate import (ApproximateTimeSync, SyncConfig,
-                                               reference_stamp)
+from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, reference_stamp
 
 CAMS = ('cam0', 'cam1', 'cam2', 'cam3')
 PERIOD_NS = 33_333_333

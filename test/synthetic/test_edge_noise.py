@@ -32,7 +32,8 @@ def test_noise_adds_and_removes_and_is_deterministic() -> None:
 def test_stroke_orientation_is_the_curve_normal() -> None:
     edges = np.zeros((200, 200), bool)
     angle = np.zeros((200, 200), np.float32)
-    cfg = EdgeNoiseConfig(enabled=True, strokes_per_10k_px=3.0, blobs_per_10k_px=0.0, gap_fraction=0.0)
+    cfg = EdgeNoiseConfig(enabled=True, strokes_per_10k_px=3.0, blobs_per_10k_px=0.0,
+                          gap_fraction=0.0)
     noisy, noisy_angle = add_edge_noise(edges, angle, np.random.default_rng(1), cfg)
     # Oracle: the structure tensor of the drawn strokes; its dominant direction is the normal.
     img = noisy.astype(np.float32)

@@ -6,15 +6,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_tracker_ros.bags.convert import (camera_info_from_msg, hand_state_from_msg,
-                                           joint_state_from_msg)
+from hand_tracker_ros.bags.convert import (
+    camera_info_from_msg,
+    hand_state_from_msg,
+    joint_state_from_msg,
+)
+from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.cli.main import main
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import GT_JOINTS_TOPIC, GT_STATE_TOPIC
-from hand_tracker_ros.vision.image_codec import image_from_msg
 
 SMALL = SynthConfig(motion='pinch', n_frames=4, n_cameras=2, seed=5)
 

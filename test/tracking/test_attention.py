@@ -2,11 +2,11 @@
 and a fingertip detection every few sets; the offline pipeline observes what it plans."""
 from __future__ import annotations
 
-from hand_tracker_ros.pipeline.frames import FrameSet
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.attention import Attention, AttentionConfig, ObservationPlan
-from hand_tracker_ros.tracking.result import TrackStatus
 from hand_tracker_ros.tracking.roi import hand_rois
 
 

@@ -4,8 +4,13 @@ from __future__ import annotations
 import numpy as np
 
 from hand_tracker_ros.geometry.rotations import rot_y, rot_z
-from hand_tracker_ros.tracking.hypotheses import (TURNS, constant_velocity, hand_rotation,
-                                                  turned, turned_hypotheses)
+from hand_tracker_ros.tracking.hypotheses import (
+    TURNS,
+    constant_velocity,
+    hand_rotation,
+    turned,
+    turned_hypotheses,
+)
 
 
 def _theta(model):

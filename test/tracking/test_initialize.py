@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.rig import CameraRig
-from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.initialize import locate_hand

@@ -6,8 +6,8 @@ import math
 import numpy as np
 
 import hand_tracker_ros.tracking.tracker as tracker_module
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.model.layout import PARAM_NAMES
-from hand_tracker_ros.pipeline.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.problem import Problem

@@ -5,12 +5,12 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.config import from_mapping
-from hand_tracker_ros.pipeline.frames import FrameSet
+from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
 from hand_tracker_ros.tracking.hypotheses import turned_hypotheses
-from hand_tracker_ros.tracking.result import TrackStatus
 
 
 def _error_mm(result, frame) -> float:

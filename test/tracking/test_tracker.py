@@ -5,11 +5,13 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.config import from_mapping
-from hand_tracker_ros.pipeline.frames import FrameSet
+from hand_tracker_ros.core.frames import FrameSet
+from hand_tracker_ros.optim.lm import FitStatus
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.schedule import ScheduleConfig, rounds
-from hand_tracker_ros.tracking.result import TrackStatus
+from hand_tracker_ros.tracking.tracker import HandTracker, TrackerConfig
 
 
 def _error_mm(result, frame) -> float:
@@ -38,6 +40,19 @@ def test_tracker_follows_a_synthetic_grasp(hand_model, grasp) -> None:
     assert np.mean(errors) < 0.5 * np.mean(still)      # far better than not moving
     assert all(r.stamp_ns == f.stamp_ns for r, f in zip(results, frames[1:]))
     assert set(results[-1].energy_costs) >= {'edges', 'silhouette', 'collision'}
+    # Every LM call of the kept fit reports why it stopped: 3 rounds, then separation rounds.
+    assert all(len(r.lm_statuses) >= 3 for r in results)
+    assert all(isinstance(s, FitStatus) for r in results for s in r.lm_statuses)
+
+
+@pytest.mark.parametrize(('cap', 'rounds_n', 'separation_n'), [(10, 4, 10), (3, 3, 3)])
+def test_lm_max_iterations_caps_the_rounds_and_the_separation(hand_model, grasp, cap, rounds_n,
+                                                              separation_n) -> None:
+    sequence, _ = grasp
+    config = from_mapping(TrackerConfig, {'lm.max_iterations': cap})
+    tracker = HandTracker(hand_model, sequence.rig.cameras, config)
+    assert tracker._lm_config().max_iterations == rounds_n
+    assert tracker._separator.lm.max_iterations == separation_n
 
 
 def test_pipelined_run_gives_the_estimates_of_step_by_step(hand_model, grasp) -> None:

@@ -9,8 +9,7 @@ import pytest
 from hand_tracker_ros.config import validate
 from hand_tracker_ros.errors import ConfigError, ImageFormatError
 from hand_tracker_ros.vision.detector.data import labelled_views
-from hand_tracker_ros.vision.detector.detector import (DetectorConfig, FingertipDetector,
-                                                       find_peaks)
+from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector, find_peaks
 from hand_tracker_ros.vision.detector.evaluation import DetectionTally
 from hand_tracker_ros.vision.detector.model import DetectorModel
 

@@ -15,7 +15,12 @@ from hand_tracker_ros.errors import ConfigError  # noqa: E402
 from hand_tracker_ros.vision.detector.model import DetectorModel  # noqa: E402
 from hand_tracker_ros.vision.detector.network import ExportedNetwork, TipNetwork  # noqa: E402
 from hand_tracker_ros.vision.detector.training import (  # noqa: E402
-    TrainingConfig, augment, export_onnx, targets, train)
+    TrainingConfig,
+    augment,
+    export_onnx,
+    targets,
+    train,
+)
 
 # Seconds, not minutes: few small views, a narrow network.
 TINY = TrainingConfig(n_views=6, epochs=2, batch_size=3, stem_channels=4, channels=8,

@@ -4,8 +4,12 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.errors import ImageFormatError, ShapeError
-from hand_tracker_ros.vision.edges import (EdgeConfig, compute_edges, nearest_edges,
-                                           orientation_compatibility)
+from hand_tracker_ros.vision.edges import (
+    EdgeConfig,
+    compute_edges,
+    nearest_edges,
+    orientation_compatibility,
+)
 from hand_tracker_ros.vision.image import to_gray
 
 

@@ -6,9 +6,13 @@ import pytest
 
 from hand_tracker_ros.config import flatten, from_mapping
 from hand_tracker_ros.errors import ConfigError, ImageFormatError, ShapeError
-from hand_tracker_ros.vision.features import (CameraFeatures, FeatureExtractor, FeaturesConfig,
-                                              MultiCameraFeatures)
 from hand_tracker_ros.vision.edges import nearest_edges
+from hand_tracker_ros.vision.features import (
+    CameraFeatures,
+    FeatureExtractor,
+    FeaturesConfig,
+    MultiCameraFeatures,
+)
 from hand_tracker_ros.vision.flow import DenseFlow, FlowConfig, SparseFlow
 from hand_tracker_ros.vision.visualize import paste_roi
 

@@ -3,8 +3,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hand_tracker_ros.checks import check_rgb
 from hand_tracker_ros.errors import ImageFormatError
-from hand_tracker_ros.vision.image import check_rgb, clip_roi, to_gray
+from hand_tracker_ros.vision.image import clip_roi, to_gray
 
 
 def _rgb(rng: np.random.Generator, h: int = 5, w: int = 7) -> np.ndarray:

@@ -7,9 +7,13 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.bags.convert import compressed_image_msg, image_msg
+from hand_tracker_ros.bags.image_codec import (
+    compress_rgb,
+    image_from_buffer,
+    image_from_compressed,
+    image_from_msg,
+)
 from hand_tracker_ros.errors import ImageFormatError
-from hand_tracker_ros.vision.image_codec import (compress_rgb, image_from_buffer,
-                                                 image_from_compressed, image_from_msg)
 
 
 def _rgb(rng: np.random.Generator, h: int = 5, w: int = 7) -> np.ndarray:

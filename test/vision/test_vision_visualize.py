@@ -4,8 +4,13 @@ import numpy as np
 
 from hand_tracker_ros.vision.edges import EdgeConfig, compute_edges
 from hand_tracker_ros.vision.flow import DenseFlow, SparseFlow
-from hand_tracker_ros.vision.visualize import (edge_image, flow_image, flow_to_rgb, mask_image,
-                                               paste_roi)
+from hand_tracker_ros.vision.visualize import (
+    edge_image,
+    flow_image,
+    flow_to_rgb,
+    mask_image,
+    paste_roi,
+)
 
 
 def test_edge_and_mask_images():

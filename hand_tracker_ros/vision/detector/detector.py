@@ -19,6 +19,8 @@ Per image (:class:`.model.DetectorModel` runs the network with ONNX Runtime, no 
    by max pooling, as in CenterNet) with :math:`p \ge` ``min_score``;
 3. a peak at cell (i, j) is the detection :math:`(u, v) = 4\,(j + \delta_u, i + \delta_v)`
    with score :math:`p`; at most ``max_detections``, highest score first.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
@@ -29,10 +31,10 @@ import cv2
 import numpy as np
 
 from hand_tracker_ros._typing import Float32Array, FloatArray, UInt8Array
+from hand_tracker_ros.checks import check_rgb
 from hand_tracker_ros.config import param
-from hand_tracker_ros.tracking.observations import SalientDetections
+from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.model import STRIDE, DetectorModel
-from hand_tracker_ros.vision.image import check_rgb
 
 _NMS_KERNEL = np.ones((3, 3), np.uint8)
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray
-from hand_tracker_ros.tracking.observations import SalientDetections
+from hand_tracker_ros.vision.detections import SalientDetections
 
 
 @dataclass

@@ -23,7 +23,7 @@ the seed; PyTorch runs with deterministic algorithms on ``threads`` threads):
    (peak ``learning_rate``), ``epochs`` passes over the views;
 5. export :class:`.network.ExportedNetwork` to ONNX (:func:`export_onnx`).
 
-Experiment log (issue 4; validation: 300 views of seed 1, training views of seed 0;
+Experiment log (validation: 300 views of seed 1, training views of seed 0;
 P / R = precision / recall of visible tips within 8 px at min_score 0.3 / 0.4 / 0.5;
 times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
 

@@ -6,19 +6,11 @@ markers, ``/diagnostics``) and into the offline estimates bags, so they live bel
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import IntEnum
-from typing import Any
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.model.hand import PosedHand
-
-
-class TrackStatus(IntEnum):
-    """Matches ``hand_tracker_msgs/HandState`` STATUS_* constants."""
-
-    INITIALIZING = 0
-    TRACKING = 1
-    LOST = 2
+from hand_tracker_ros.optim.lm import FitStatus
+from hand_tracker_ros.status import TrackStatus
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,10 +37,14 @@ class TrackResult:
         The image evidence the confidence was computed from.
     timings_s : dict of str to float
         Wall time of each stage (s); ``total`` is the latency of the set.
-    labels : tuple
-        Per camera: detection -> finger (-1 unassigned).
+    labels : tuple of tuple
+        The ``labels`` of every round correspondence that has them, in term order (the
+        salient term: per camera, detection -> finger, -1 unassigned; the limits term: the
+        active constraints).
     recovered_from : str
         The hypothesis the estimate came from when recovery ran (empty otherwise).
+    lm_statuses : tuple of FitStatus
+        Why each Levenberg-Marquardt call of the kept fit stopped (``Fit.lm_statuses``).
     """
 
     stamp_ns: int
@@ -60,5 +56,6 @@ class TrackResult:
     confidence: float
     evidence: dict[str, float] = field(default_factory=dict)
     timings_s: dict[str, float] = field(default_factory=dict)
-    labels: tuple[Any, ...] = ()
+    labels: tuple[tuple[object, ...], ...] = ()
     recovered_from: str = ''
+    lm_statuses: tuple[FitStatus, ...] = ()

@@ -17,18 +17,32 @@ Cost convention: a term's cost is ``0.5 * weight * |r|^2``.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Protocol
+from dataclasses import dataclass
+from typing import Any, Protocol, TypeVar
 
-if TYPE_CHECKING:
-    from hand_tracker_ros._typing import FloatArray, IntArray
+from hand_tracker_ros._typing import FloatArray, IntArray
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.model.hand import PosedHand
+
+#: The correspondences of one term for one round (an immutable value, the term's own type).
+C = TypeVar('C')
 
 
-class Energy(Protocol):
-    """One energy term: correspondences per round, residuals and analytic Jacobian per step."""
+class Energy(Protocol[C]):
+    """One energy term: correspondences per round, residuals and analytic Jacobian per step.
 
+    ``C`` is the term's correspondence type, e.g. ``EdgeEnergy`` is an
+    ``Energy[EdgeCorrespondences]``; the problem stacks terms of different ``C``.
+    """
+
+    #: The term's name, its key in the configuration (``TermsConfig``) and in the cost table.
     name: str
 
-    def correspond(self, context: Any) -> Any:
+    @property
+    def weight(self) -> float:
+        """Configured weight of the term's cost ``0.5 * weight * |r|^2``."""
+
+    def correspond(self, context: RoundContext) -> C:
         """Find this term's correspondences for one round.
 
         ``context`` carries the posed hand at the start of the round, the per-camera model
@@ -36,12 +50,26 @@ class Energy(Protocol):
         is immutable and fixes the residual count for the round.
         """
 
-    def residuals(self, posed: Any, correspondences: Any) -> FloatArray:
+    def residuals(self, posed: PosedHand, correspondences: C) -> FloatArray:
         """Residuals ``r (M,)`` of the posed hand for fixed correspondences."""
 
-    def linearize(self, posed: Any, correspondences: Any) -> tuple[FloatArray, FloatArray]:
+    def linearize(self, posed: PosedHand, correspondences: C
+                  ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` and analytic Jacobian ``dr/dtheta (M, P)``."""
 
-    def jacobian_vertices(self, correspondences: Any) -> IntArray:
+    def jacobian_vertices(self, correspondences: C) -> IntArray:
         """Mesh vertices (K,) int64 whose rows of ``posed.vertices_jac`` ``linearize`` reads
         (repeats allowed); the problem skins only the union of these with their Jacobian."""
+
+
+@dataclass(frozen=True)
+class Term:
+    """An energy term with its weight (cost = 0.5 * weight * |r|^2)."""
+
+    energy: Energy[Any]   # terms of any correspondence type are stacked together
+    weight: float
+
+    @property
+    def name(self) -> str:
+        """The energy's name."""
+        return self.energy.name

@@ -1,4 +1,4 @@
-"""What one synchronized set of camera frames tells the tracker (plain data, no ROS)."""
+"""Unlabelled fingertip detections in one image: what the salient-point detector finds."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -7,8 +7,6 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.checks import check_finite, check_shape
-from hand_tracker_ros.geometry.camera import PinholeCamera
-from hand_tracker_ros.vision.features import CameraFeatures
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,28 +33,3 @@ class SalientDetections:
     def empty(cls) -> SalientDetections:
         """No detections."""
         return cls(np.zeros((0, 2)), np.zeros(0))
-
-
-@dataclass(frozen=True, eq=False)
-class CameraObservation:
-    """One camera's calibration, image features and fingertip detections for one frame."""
-
-    camera: PinholeCamera
-    features: CameraFeatures
-    tips: SalientDetections
-
-
-@dataclass(frozen=True, eq=False)
-class FrameObservations:
-    """A synchronized set of C camera observations.
-
-    Attributes
-    ----------
-    stamp_ns : int
-        Reference stamp of the set (ns).
-    cameras : tuple of CameraObservation
-        One entry per camera of the rig, in rig order.
-    """
-
-    stamp_ns: int
-    cameras: tuple[CameraObservation, ...]

@@ -27,8 +27,8 @@ import cv2
 import numpy as np
 
 from hand_tracker_ros._typing import UInt8Array
+from hand_tracker_ros.checks import check_image_size, check_rgb
 from hand_tracker_ros.errors import ImageFormatError
-from hand_tracker_ros.vision.image import check_image_size, check_rgb
 
 # encoding -> (channels, numpy dtype of one channel, cv2 conversion to RGB or None for a copy).
 # '8UC3' is taken as bgr8, the cv_bridge convention for OpenCV images; 'uyvy'/'yuyv' are the

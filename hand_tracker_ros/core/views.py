@@ -1,0 +1,45 @@
+"""The model as each camera sees it: raster, visibility and contour points, once per round.
+
+Edges, flow, salient points and the silhouette term all need the current model's per-camera
+visibility and contours; they are computed here once per correspondence round and shared.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from numpy.typing import ArrayLike
+
+from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.model.hand import PosedHand
+from hand_tracker_ros.render.contours import (
+    ContourConfig,
+    ContourPoints,
+    MeshEdges,
+    contour_points,
+)
+from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, render
+
+
+@dataclass(frozen=True, eq=False)
+class ModelView:
+    """The posed model in one camera."""
+
+    camera: Camera
+    raster: RenderResult
+    contours: ContourPoints
+
+
+def model_views(posed: PosedHand, faces: ArrayLike, edges: MeshEdges,
+                cameras: Sequence[Camera], *,
+                render_config: RenderConfig = RenderConfig(),
+                contour_config: ContourConfig = ContourConfig()) -> tuple[ModelView, ...]:
+    """Render ``posed.vertices_m`` into every camera and extract its contour points."""
+    views = []
+    for camera in cameras:
+        raster = render(camera, posed.vertices_m, faces, render_config)
+        contours = contour_points(camera, posed.vertices_m, edges, raster, contour_config)
+        views.append(ModelView(camera, raster, contours))
+    return tuple(views)
+
+

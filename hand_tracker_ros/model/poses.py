@@ -1,0 +1,29 @@
+"""Named hand poses, each defined once (joint angles by ``PARAM_NAMES``; unnamed joints 0).
+
+- :data:`NEUTRAL_RAD`: the model's neutral pose (``HandModel.neutral_theta``), also the tracker
+  node's default ``initial_pose`` (:data:`NEUTRAL_THETA`, computed here without building the
+  model, which costs seconds).
+- :data:`RELAXED_DEG`: the rest pose of the synthetic motions, which the start search's
+  hypotheses also take (``tracking/initialize.py``). A different, less flexed pose than the
+  neutral one; merging the two would change the synthetic data and the search.
+"""
+from __future__ import annotations
+
+from hand_tracker_ros.model.layout import FINGERS, PARAM_NAMES
+
+# Relaxed, slightly flexed open hand (rad), our choice; inside the joint limits.
+NEUTRAL_RAD: dict[str, float] = {
+    'thumb_cmc_flex': 0.15, 'thumb_cmc_abd': 0.25, 'thumb_mcp_flex': 0.15, 'thumb_ip_flex': 0.15,
+    **{f'{f}_{j}': v for f in ('index', 'middle', 'ring', 'pinky')
+       for j, v in (('mcp_flex', 0.2), ('mcp_abd', 0.0), ('pip_flex', 0.25), ('dip_flex', 0.15))},
+}
+
+#: The neutral pose as a theta vector (P,), PARAM_NAMES order, wrist at the world origin.
+NEUTRAL_THETA: tuple[float, ...] = tuple(NEUTRAL_RAD.get(name, 0.0) for name in PARAM_NAMES)
+
+# A relaxed hand: joints slightly flexed (deg), ours.
+RELAXED_DEG: dict[str, float] = {
+    'thumb_cmc_flex': 5.0, 'thumb_cmc_abd': 20.0, 'thumb_mcp_flex': 10.0, 'thumb_ip_flex': 10.0,
+    **{f'{f}_{j}': v for f in FINGERS for j, v in (('mcp_flex', 10.0), ('pip_flex', 15.0),
+                                                     ('dip_flex', 8.0))},
+}
