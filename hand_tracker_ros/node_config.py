@@ -95,7 +95,9 @@ class TrackerNodeConfig:
                                 'the observations, or use initial_pose',
                                 choices=('observations', 'initial_pose'))
     session: SessionConfig = nested(SessionConfig)
-    publish_mesh: bool = param(False, 'add the model mesh (TRIANGLE_LIST) to `markers`')
+    publish_mesh: bool = param(False, 'add the model mesh (TRIANGLE_LIST) to `hand/markers`')
+    publish_tf: bool = param(True, 'publish /tf: every URDF joint of the hand at the estimate '
+                             '(off when another node, e.g. robot_state_publisher, does)')
     publish_overlay: bool = param(False, 'publish <cam>/overlay: the model drawn on the input')
     optical_frame_suffix: str = param('_optical_frame', 'frame id of <cam>/overlay is the '
                                       'camera name plus this suffix (REP 103 optical frame)')
@@ -137,7 +139,7 @@ class RecorderNodeConfig:
     """The `recorder` node: records topics to a rosbag2 through raw subscriptions."""
 
     output: str = param('', 'output bag directory (must not exist); empty: stay idle')
-    topics: tuple[str, ...] = param(('/joint_states', '/hand_state'), 'topics to record')
+    topics: tuple[str, ...] = param(('/hand/joint_states', '/hand/state'), 'topics to record')
     all_topics: bool = param(False, 'record every topic that appears in the graph')
     exclude_regex: str = param('', "topics fully matching this regex are not recorded; "
                                "'' = none")

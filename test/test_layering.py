@@ -12,7 +12,8 @@ import hand_tracker_ros
 PACKAGE_DIR = Path(hand_tracker_ros.__file__).parent
 ROS_MODULES = ('rclpy', 'rcl_interfaces', 'sensor_msgs', 'std_msgs', 'geometry_msgs',
                'visualization_msgs', 'diagnostic_msgs', 'rosgraph_msgs', 'builtin_interfaces',
-               'hand_tracker_msgs', 'cv_bridge', 'message_filters', 'ament_index_python')
+               'hand_tracker_msgs', 'tf2_msgs', 'cv_bridge', 'message_filters',
+               'ament_index_python')
 ADAPTERS = ('nodes', 'ros_io')
 # Core modules that need an optional package (requirements/train.txt), imported only when it
 # is installed.

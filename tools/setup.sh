@@ -4,8 +4,9 @@
 #      build set, colcon, the project's libraries and the lint/type/import checkers
 #      (requirements/*.txt);
 #   2. the CMake path fix for the ROS wheels (tools/fix_wheel_cmake.sh);
-#   3. `colcon build` of msg_defs/hand_tracker_msgs (ament_cmake) and of this repository's
-#      root package hand_tracker_ros (ament_python, --symlink-install) into .ws/;
+#   3. `colcon build` of msg_defs/hand_tracker_msgs (ament_cmake), of msg_defs/tf2_msgs (only
+#      when no tf2_msgs is installed: PyPI has none) and of this repository's root package
+#      hand_tracker_ros (ament_python, --symlink-install) into .ws/;
 #   4. .ws/env.sh, which a shell sources to use the result;
 #   5. `hand-tracker warmup`: the numba kernels compiled into their on-disk cache, so that no
 #      node, test or demo compiles while frames arrive.
@@ -71,10 +72,18 @@ else
 fi
 
 # --- 2. colcon build --------------------------------------------------------------------------
+# tf2_msgs (/tf) is not on PyPI: msg_defs/tf2_msgs is built unless an installed one (a full ROS
+# install on AMENT_PREFIX_PATH, or the venv) is found outside this workspace.
+tf2_msgs_installed=$(bash "$ROOT/tools/find_tf2_msgs.sh" "$VENV" "$WS")
+colcon_select=()
+if [ -n "$tf2_msgs_installed" ]; then
+  log "using the installed tf2_msgs ($tf2_msgs_installed)"
+  colcon_select=(--packages-ignore tf2_msgs)
+fi
 build_inputs=("$ROOT"/setup.py "$ROOT"/setup.cfg "$ROOT"/package.xml "$ROOT"/resource/*
-              "$ROOT"/msg_defs/hand_tracker_msgs/package.xml "$ROOT"/msg_defs/hand_tracker_msgs/CMakeLists.txt
-              "$ROOT"/msg_defs/hand_tracker_msgs/msg/*.msg "$ROOT"/config/* "$ROOT"/launch/* "$ROOT"/urdf/*)
-build_hash=$( { echo "$req_hash"; ls "${build_inputs[@]}"; cat "${build_inputs[@]}"; } | sha256sum | cut -d' ' -f1)
+              "$ROOT"/msg_defs/*/package.xml "$ROOT"/msg_defs/*/CMakeLists.txt
+              "$ROOT"/msg_defs/*/msg/*.msg "$ROOT"/config/* "$ROOT"/launch/* "$ROOT"/urdf/*)
+build_hash=$( { echo "$req_hash" "$tf2_msgs_installed"; ls "${build_inputs[@]}"; cat "${build_inputs[@]}"; } | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$WS/.build_hash" 2>/dev/null)" != "$build_hash" ] || [ ! -f "$WS/install/setup.bash" ]; then
   log "colcon build (log: $WS/logs/colcon.log)"
   (
@@ -84,7 +93,7 @@ if [ "$(cat "$WS/.build_hash" 2>/dev/null)" != "$build_hash" ] || [ ! -f "$WS/in
     "$VENV/bin/colcon" --log-base "$WS/log" build \
       --base-paths "$ROOT" "$ROOT/msg_defs" \
       --build-base "$WS/build" --install-base "$WS/install" \
-      --symlink-install --event-handlers console_cohesion- summary- \
+      --symlink-install --event-handlers console_cohesion- summary- "${colcon_select[@]}" \
       --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$VENV/bin/python"
   ) >"$WS/logs/colcon.log" 2>&1 || { tail -40 "$WS/logs/colcon.log" >&2; fail "colcon build failed"; }
   echo "$build_hash" >"$WS/.build_hash"

@@ -3,7 +3,9 @@
 The ``.msg`` files in ``msg_defs/hand_tracker_msgs/msg`` are the single source of the
 custom types. They are parsed with rosbags' ``get_types_from_msg``, so the definitions and
 the RIHS01 type hashes written into bags equal the ones colcon's rosidl build produces,
-without needing the built package (or rclpy) at run time.
+without needing the built package (or rclpy) at run time. ``tf2_msgs/msg/TFMessage`` (the
+``/tf`` of the estimates bags) comes with the Kilted store; ``msg_defs/tf2_msgs`` holds the same
+definition for installs without tf2_msgs (a test checks that the type hashes agree).
 
 Search order for the ``.msg`` directory (first hit wins):
 

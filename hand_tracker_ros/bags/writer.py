@@ -33,16 +33,19 @@ _STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
 _UNSPECIFIED = QosTime(sec=0, nsec=0)
 
 
-def _qos(reliability: QosReliability, depth: int) -> Qos:
+def _qos(reliability: QosReliability, depth: int,
+         durability: QosDurability = QosDurability.VOLATILE) -> Qos:
     return Qos(history=QosHistory.KEEP_LAST, depth=depth, reliability=reliability,
-               durability=QosDurability.VOLATILE, deadline=_UNSPECIFIED,
+               durability=durability, deadline=_UNSPECIFIED,
                lifespan=_UNSPECIFIED, liveliness=QosLiveliness.AUTOMATIC,
                liveliness_lease_duration=_UNSPECIFIED, avoid_ros_namespace_conventions=False)
 
 
-# rclpy's defaults for outputs (reliable, depth 10) and qos_profile_sensor_data.
+# rclpy's defaults for outputs (reliable, depth 10), qos_profile_sensor_data, and a latched
+# topic (transient local, depth 1: robot_description), replayed to late subscribers.
 QOS_PROFILES = {'reliable': _qos(QosReliability.RELIABLE, 10),
-                'sensor_data': _qos(QosReliability.BEST_EFFORT, 5)}
+                'sensor_data': _qos(QosReliability.BEST_EFFORT, 5),
+                'latched': _qos(QosReliability.RELIABLE, 1, QosDurability.TRANSIENT_LOCAL)}
 
 
 class BagWriter:
@@ -98,7 +101,7 @@ class BagWriter:
         return self._writer
 
     def add_topic(self, topic: str, msgtype: str, *,
-                  qos: Literal['reliable', 'sensor_data'] = 'reliable') -> None:
+                  qos: Literal['reliable', 'sensor_data', 'latched'] = 'reliable') -> None:
         """Declare ``topic`` with ROS 2 type ``msgtype`` (e.g. ``sensor_msgs/msg/Image``).
 
         Raises

@@ -20,12 +20,15 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.evaluation.figures import error_plot, overlay_grid
 from hand_tracker_ros.evaluation.replay import live_summary, replay
 from hand_tracker_ros.graph_nodes import NODES as GRAPH
 from hand_tracker_ros.launcher import GRAPH_MODES
 from hand_tracker_ros.pipeline.frames import load_rig
+from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
 
@@ -87,10 +90,14 @@ def run(args: argparse.Namespace) -> int:
           f'{s.fingertip_mean_mm:.2f} mm; 2D reprojection {s.reprojection_px:.2f} px; '
           f'interpenetration <= {s.max_interpenetration_mm:.2f} mm; {s.failures} failures '
           '(the sets marked LOST included)')
-    error_plot(outcome.errors_mm, out / 'error.png', f'{bag}: mean 3D joint error')
     stamps = sorted(outcome.states)
+    scored = np.asarray(outcome.scored_stamps_ns, dtype=np.int64)
+    lost = [outcome.states[s].status == TrackStatus.LOST for s in outcome.scored_stamps_ns]
+    error_plot((scored - stamps[0]) / 1e9, outcome.errors_mm, np.array(lost, dtype=bool),
+               out / 'error.png', f'{bag}: mean 3D joint error per estimated set')
     picks = [stamps[i] for i in (0, len(stamps) // 2, -1)] if stamps else []
-    overlay_grid(bag, load_rig(bag), outcome.states, picks, out / 'overlays.png')
+    overlay_grid(bag, load_rig(bag), outcome.states, picks, out / 'overlays.png',
+                 dict(zip(outcome.scored_stamps_ns, outcome.errors_mm.tolist())))
     print(f'output bag: {outcome.recorded_bag}\nerror plot: {out / "error.png"}\n'
           f'overlay images (rows: frames, columns: cameras): {out / "overlays.png"}')
     if outcome.tracked_share < args.min_tracked:

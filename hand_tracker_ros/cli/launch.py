@@ -41,8 +41,11 @@ from hand_tracker_ros.launcher import (
     ros_list,
     tracker_mode_args,
 )
+from hand_tracker_ros.topics import JOINT_STATES, STATE, TRACKER_OUTPUTS
 
-RECORDED = ('/joint_states', '/hand_state', '/markers', '/diagnostics')
+RECORDED = tuple(t.absolute for t in TRACKER_OUTPUTS)
+# The graph is ready to play once the recorder listens to these (/tf may be switched off).
+READY = (JOINT_STATES.absolute, STATE.absolute)
 
 
 def graph_specs(params_file: str | None = None, *, rig: str | None = None,
@@ -137,7 +140,7 @@ def _play(playback: ProcessGroup, cameras: tuple[str, ...], args: argparse.Names
     """Steps 1, 2 and 4 of the module docstring, once the other nodes run."""
     from hand_tracker_ros.ros_io.graph import wait_for_tracking_graph  # rclpy only here
 
-    wait_for_tracking_graph(cameras, RECORDED, timeout_s=args.startup_timeout, mode=args.mode)
+    wait_for_tracking_graph(cameras, READY, timeout_s=args.startup_timeout, mode=args.mode)
     playback.start()
     playback.wait_any()
     print(f'[launch] player exited; stopping the graph in {args.drain:g} s', flush=True)

@@ -1,8 +1,9 @@
 """`hand-tracker track BAG --out OUT`: bag -> features -> detector -> tracker, no ROS graph.
 
 Deterministic: the same bag and options give the same estimates. Writes a rosbag2 (mcap) with
-``/hand/joint_states`` and ``/hand/state``; for synthetic bags (with ground truth) prints the
-mean 3D joint error.
+the live tracker's topics (``/hand/joint_states``, ``/hand/state``, ``/hand/markers``, ``/tf``,
+``/hand/robot_description``; :mod:`hand_tracker_ros.ros_io.estimates_bag`); for synthetic bags
+(with ground truth) prints the mean 3D joint error.
 """
 from __future__ import annotations
 
@@ -15,8 +16,9 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import image_count, rig_file
 from hand_tracker_ros.pipeline.offline import PipelineConfig
-from hand_tracker_ros.pipeline.track_bag import track_bag, write_estimates
+from hand_tracker_ros.pipeline.track_bag import track_bag
 from hand_tracker_ros.progress import progress
+from hand_tracker_ros.ros_io.estimates_bag import write_estimates
 from hand_tracker_ros.status import TrackStatus
 
 

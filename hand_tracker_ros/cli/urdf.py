@@ -1,8 +1,10 @@
 """`hand-tracker urdf [--out FILE]`: the hand's URDF, whose joints are the JointState names.
 
 The repository's ``urdf/hand.urdf`` (installed to ``share/hand_tracker_ros/urdf/``) is this
-command's output with the defaults (a test checks it): give it to ``robot_state_publisher`` as
-``robot_description`` and the tracker's ``joint_states`` pose it.
+command's output with the defaults (a test checks it). The tracker publishes it itself on
+``hand/robot_description`` (with its ``world_frame`` as root link) and the hand's ``/tf``; given
+to ``robot_state_publisher`` as ``robot_description``, the tracker's ``hand/joint_states`` pose
+it as well.
 """
 from __future__ import annotations
 

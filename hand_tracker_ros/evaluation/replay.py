@@ -39,9 +39,10 @@ from hand_tracker_ros.launcher import (
 )
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
+from hand_tracker_ros.topics import JOINT_STATES, STATE
 
 LOG = logging.getLogger(__name__)
-OUTPUT_TOPICS = ('/joint_states', '/hand_state')
+OUTPUT_TOPICS = (JOINT_STATES.absolute, STATE.absolute)
 
 
 @dataclass(frozen=True)
@@ -56,6 +57,7 @@ class ReplayOutcome:
     errors_mm: FloatArray    # per scored frame, mean 3D joint error, in stamp order
     latencies_ms: FloatArray  # per HandState: input stamp to the recorder, wall-clock ms
     duration_s: float        # the bag's span of input sets, wall-clock s at the played rate
+    scored_stamps_ns: tuple[int, ...] = ()   # the stamps of ``errors_mm``
 
     @property
     def estimates_per_s(self) -> float:
@@ -140,7 +142,7 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
 
 def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: CameraRig, *,
                     rate: float = 1.0, skip_first: bool = True) -> ReplayOutcome:
-    """Score the ``/hand_state`` messages of the bag ``recorded`` against ``truth`` (by
+    """Score the ``/hand/state`` messages of the bag ``recorded`` against ``truth`` (by
     stamp); ``skip_first``: the first set is where the tracker was put (not scored)."""
     with BagReader(recorded) as reader:
         topics = reader.topics
@@ -149,11 +151,12 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
         # and one frame late when the tracker needed longer than the player's frame period.
         # The receive time still gives the latency (sim time runs at ``rate``).
         states, received = {}, {}
-        for _, _, recv_ns, msg in (reader.decoded(topics=['/hand_state'])
-                                   if '/hand_state' in topics else ()):
+        for _, _, recv_ns, msg in (reader.decoded(topics=[STATE.absolute])
+                                   if STATE.absolute in topics else ()):
             state = hand_state_from_msg(msg)
             states[state.stamp_ns], received[state.stamp_ns] = state, recv_ns
-        n_joint_states = topics['/joint_states'].count if '/joint_states' in topics else 0
+        n_joint_states = (topics[JOINT_STATES.absolute].count
+                          if JOINT_STATES.absolute in topics else 0)
     latencies = np.array([(recv - stamp) / 1e6 / rate for stamp, recv in received.items()])
     # n sets, one period each: the span of their stamps plus one period, at the played rate.
     span_s = (max(truth) - min(truth)) / 1e9 if len(truth) > 1 else 0.0
@@ -173,7 +176,7 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
     scores = score_sequence(estimate, true, [states[s].status == 2 for s in common],
                             rig.cameras, depth, [states[s].processing_time_s for s in common])
     return ReplayOutcome(recorded, len(truth), n_joint_states, scores, states,
-                         joint_errors_mm(estimate, true), latencies, duration_s)
+                         joint_errors_mm(estimate, true), latencies, duration_s, tuple(common))
 
 
 def live_summary(outcome: ReplayOutcome) -> str:

@@ -5,9 +5,11 @@ import json
 from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from hand_tracker_ros.evaluation.metrics import FAILURE_MM
 from hand_tracker_ros.evaluation.runner import RunResult
 
 COLUMNS = (('joint_mean_mm', 'mean 3D joint (mm)'), ('joint_median_mm', 'median (mm)'),
@@ -48,10 +50,40 @@ def markdown_table(table: dict[str, dict[str, float]]) -> str:
     return '\n'.join(lines) + '\n'
 
 
-def write_report(results: Sequence[RunResult], out_dir: Path, name: str) -> str:
-    """Write ``name``.md, ``name``.json and ``name``_error.png; return the Markdown."""
+def error_figure(results: Sequence[RunResult]) -> Any:
+    """Error over frames, one panel per motion and one line per configuration, each
+    configuration's LOST frames marked with crosses of its colour, the failure threshold
+    dashed (a matplotlib Figure)."""
     import matplotlib
     matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    motions = sorted({r.motion for r in results})
+    fig, axes = plt.subplots(len(motions), 1, figsize=(9, 2.6 * len(motions)), squeeze=False)
+    for ax, motion in zip(axes[:, 0], motions):
+        for r in (r for r in results if r.motion == motion):
+            frames = np.arange(1, r.errors_mm.size + 1)
+            (line,) = ax.plot(frames, r.errors_mm, label=r.label, lw=1)
+            lost = np.asarray(r.lost, dtype=bool)
+            ax.plot(frames[lost], r.errors_mm[lost], 'x', ms=4, color=line.get_color())
+        ax.axhline(FAILURE_MM, ls='--', lw=0.8, color='gray')
+        ax.set_title(motion)
+        ax.set_ylabel('joint error (mm)')
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel('frame')
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    handles += [Line2D([], [], marker='x', ls='', color='k'),
+                Line2D([], [], ls='--', lw=0.8, color='gray')]
+    labels += ['reported LOST', f'failure threshold ({FAILURE_MM:g} mm)']
+    axes[0, 0].legend(handles, labels, fontsize=7, ncol=3)
+    fig.tight_layout()
+    return fig
+
+
+def write_report(results: Sequence[RunResult], out_dir: Path, name: str) -> str:
+    """Write ``name``.md, ``name``.json and ``name``_error.png (:func:`error_figure`); return
+    the Markdown."""
     import matplotlib.pyplot as plt
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -62,17 +94,7 @@ def write_report(results: Sequence[RunResult], out_dir: Path, name: str) -> str:
                for r in results]
     (out_dir / f'{name}.json').write_text(json.dumps({'summary': table, 'runs': per_run},
                                                      indent=2))
-    motions = sorted({r.motion for r in results})
-    fig, axes = plt.subplots(len(motions), 1, figsize=(9, 2.6 * len(motions)), squeeze=False)
-    for ax, motion in zip(axes[:, 0], motions):
-        for r in (r for r in results if r.motion == motion):
-            ax.plot(np.arange(1, r.errors_mm.size + 1), r.errors_mm, label=r.label, lw=1)
-        ax.set_title(motion)
-        ax.set_ylabel('joint error (mm)')
-        ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel('frame')
-    axes[0, 0].legend(fontsize=7, ncol=3)
-    fig.tight_layout()
+    fig = error_figure(results)
     fig.savefig(out_dir / f'{name}_error.png', dpi=110)
     plt.close(fig)
     return text

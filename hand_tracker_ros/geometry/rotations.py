@@ -22,10 +22,14 @@ the decomposition used by the sphere-mesh joint-limit energy: the twist about th
 
 It is singular (gimbal lock) at ``b = +-pi/2``; there ``a`` is set to 0 and
 ``c = atan2(-R[2, 0], R[2, 2])`` absorbs it.
+
+Quaternions (:func:`quaternions_xyzw_from_matrices`, for ``geometry_msgs/Quaternion``) are unit
+``(x, y, z, w)`` with ``w >= 0``: ``q = (sin(t/2) a, cos(t/2))`` for axis ``a`` and angle ``t``.
 """
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from hand_tracker_ros._typing import FloatArray
 
@@ -133,3 +137,9 @@ def euler_xzy_from_matrix(rot: FloatArray) -> tuple[float, float, float]:
 def matrix_from_euler_xzy(a_rad: float, b_rad: float, c_rad: float) -> FloatArray:
     """``Rx(a) Rz(b) Ry(c)`` (3, 3); the inverse of :func:`euler_xzy_from_matrix`."""
     return rot_x(a_rad) @ rot_z(b_rad) @ rot_y(c_rad)
+
+
+def quaternions_xyzw_from_matrices(rots: FloatArray) -> FloatArray:
+    """Rotations (N, 3, 3) -> unit quaternions (N, 4) ``(x, y, z, w)``, ``w >= 0``."""
+    quats = Rotation.from_matrix(np.asarray(rots, dtype=np.float64)).as_quat()
+    return np.where(quats[:, 3:] < 0.0, -quats, quats)

@@ -42,8 +42,9 @@ from hand_tracker_ros.errors import BagFormatError, HandTrackerError
 from hand_tracker_ros.node_config import PlayerNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
+from hand_tracker_ros.ros_io.message_kit import message_class
 from hand_tracker_ros.ros_io.params import declare_config
-from hand_tracker_ros.ros_io.raw import clock_msg, keep_last_qos, message_class, parameter_list
+from hand_tracker_ros.ros_io.raw import clock_msg, keep_last_qos, parameter_list
 
 DESCRIPTION = 'Replays a rosbag2 (sqlite3 or mcap) on its original topics.'
 CLOCK_TOPIC = '/clock'

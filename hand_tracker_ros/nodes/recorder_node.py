@@ -29,7 +29,7 @@ from typing import Any
 import rclpy.logging
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
 
 from hand_tracker_ros.bags.playback import compile_exclude
@@ -38,8 +38,9 @@ from hand_tracker_ros.errors import BagFormatError, HandTrackerError
 from hand_tracker_ros.node_config import RecorderNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
+from hand_tracker_ros.ros_io.message_kit import message_class
 from hand_tracker_ros.ros_io.params import declare_config
-from hand_tracker_ros.ros_io.raw import drain, matching_qos, message_class, parameter_list
+from hand_tracker_ros.ros_io.raw import drain, matching_qos, parameter_list
 
 DESCRIPTION = 'Records topics to a rosbag2 (mcap) through raw subscriptions.'
 
@@ -109,10 +110,11 @@ class RecorderNode(Node):
     def _subscribe(self, topic: str, msgtype: str, qos: QoSProfile) -> None:
         assert self._writer is not None
         best_effort = qos.reliability == ReliabilityPolicy.BEST_EFFORT
+        latched = qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
         try:
             cls = message_class(msgtype)
-            self._writer.add_topic(topic, msgtype,
-                                   qos='sensor_data' if best_effort else 'reliable')
+            self._writer.add_topic(topic, msgtype, qos='sensor_data' if best_effort else
+                                   'latched' if latched else 'reliable')
         except BagFormatError as err:
             self._skipped.add(topic)
             self.get_logger().error(f'not recording {topic}: {err}')

@@ -8,11 +8,15 @@ hosts the features and salient_points nodes, data in memory) ``<cam>/<image_topi
 (``image_transport`` raw or compressed); with ``inputs:=features`` (the *distributed* graph)
 ``<cam>/edges``, ``<cam>/edge_orientation``, ``<cam>/mask``, ``<cam>/flow`` and
 ``<cam>/salient_points`` from features and salient_points processes; and
-``<cam>/camera_info``. Published: ``joint_states`` (JointState, only while TRACKING),
-``hand_state`` (HandState, every processed set, LOST included), ``markers`` (MarkerArray,
-DELETEALL when not tracking), ``/diagnostics`` (every ``diagnostics_period_s``) and, with
-``publish_overlay``, ``<cam>/overlay`` (rgb8). Output stamps are the input set's stamp,
-frame ids ``world_frame`` (overlays: ``<cam>`` + ``optical_frame_suffix``).
+``<cam>/camera_info``. Published (:mod:`hand_tracker_ros.topics`): ``hand/joint_states``
+(JointState, only while TRACKING), ``hand/state`` (HandState, every processed set, LOST
+included), ``hand/markers`` (MarkerArray, DELETEALL when not tracking), ``/tf`` (every URDF
+joint, only while TRACKING; ``publish_tf``), ``hand/robot_description`` (the URDF rooted at
+``world_frame``, once, transient local), ``/diagnostics`` (every ``diagnostics_period_s``)
+and, with ``publish_overlay``, ``<cam>/overlay`` (rgb8). The estimates are converted by
+:class:`hand_tracker_ros.ros_io.estimates.EstimateEncoder`, the one conversion the offline
+estimates bags use too. Output stamps are the input set's stamp, frame ids ``world_frame``
+(overlays: ``<cam>`` + ``optical_frame_suffix``).
 
 Data flow and threading
 -----------------------
@@ -32,7 +36,8 @@ the same one the offline pipeline uses (start, recovery, LOST, confidence; ``ses
 again after ``session.failure.reinit_after`` consecutive LOST frames; ``initial_pose`` starts
 at, and resets to, that pose. The camera intrinsics and extrinsics come from
 ``rig_file``; a camera_info whose size contradicts the rig drops that camera's frames with
-a throttled error; a missing camera_info is only reported (the rig is used). Without a
+a throttled error; a missing camera_info is only reported (the rig is used; the policy is
+:class:`hand_tracker_ros.sync.input_health.InputHealth`). Without a
 ``rig_file`` the node refuses to start and says so.
 """
 from __future__ import annotations
@@ -41,7 +46,6 @@ import sys
 import threading
 import time
 import traceback
-from collections import Counter
 from collections.abc import Callable, Sequence
 from functools import partial
 from types import MappingProxyType
@@ -50,13 +54,13 @@ from typing import Any
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from hand_tracker_msgs.msg import HandState, SalientPoints
+from hand_tracker_msgs.msg import SalientPoints
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, qos_profile_sensor_data
-from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
-from visualization_msgs.msg import MarkerArray
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
+from hand_tracker_ros import topics
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.errors import ConfigError, HandTrackerError
@@ -68,8 +72,10 @@ from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.pipeline.live import LivePipeline
 from hand_tracker_ros.pipeline.warmup import warm_up
 from hand_tracker_ros.ros_io import outputs
+from hand_tracker_ros.ros_io.estimates import EstimateEncoder
 from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
+from hand_tracker_ros.ros_io.message_kit import RclpyKit, message_class
 from hand_tracker_ros.ros_io.observations import (
     PARTS,
     FrameAssembler,
@@ -80,6 +86,7 @@ from hand_tracker_ros.ros_io.observations import (
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
+from hand_tracker_ros.sync.input_health import InputHealth
 from hand_tracker_ros.tracking.overlay import observation_overlays
 from hand_tracker_ros.tracking.session import TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker
@@ -87,8 +94,6 @@ from hand_tracker_ros.tracking.tracker import HandTracker
 DESCRIPTION = 'Synchronized multi-camera hand tracking (collision-aware Levenberg-Marquardt).'
 THROTTLE_S = 5.0
 FLUSH_PERIOD_S = 0.01
-INFO_GRACE_S = 2.0
-SILENT_S = 1.0
 
 
 def _load_rig(config: TrackerNodeConfig) -> CameraRig:
@@ -160,12 +165,7 @@ class TrackerNode(Node):
         self._assemblers = {c: FrameAssembler(c, cfg.optional_wait_ms / 1e3,
                                               cfg.max_pending_frames) for c in cfg.cameras}
         self._lock = threading.Lock()
-        self._frames: Counter[str] = Counter()
-        self._last_frame_s: dict[str, float] = {}
-        self._first_frame_s: dict[str, float] = {}
-        self._info_s: dict[str, float] = {}
-        self._problems: dict[str, str] = {}
-        self._size_mismatch: set[str] = set()
+        self._inputs = InputHealth(self.cameras)
         self._period = self._new_period()
         self._status: TrackStatus | None = None
         self._reinits = 0
@@ -173,11 +173,16 @@ class TrackerNode(Node):
 
     def _create_outputs(self) -> None:
         cfg = self.config
-        self._pub_joints = self.create_publisher(JointState, 'joint_states', 10)
-        self._pub_state = self.create_publisher(HandState, 'hand_state', 10)
-        self._pub_markers = self.create_publisher(MarkerArray, 'markers', 10)
-        self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self._pub_overlay = {c: self.create_publisher(Image, f'{c}/overlay', 2)
+        faces = self._model.faces if cfg.publish_mesh else None
+        self._encoder = EstimateEncoder(RclpyKit(), self._model, cfg.world_frame, faces)
+        self._pubs = {t: self.create_publisher(message_class(t.msgtype), t.name, 10)
+                      for t in topics.ESTIMATES if cfg.publish_tf or t != topics.TF}
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        description = topics.ROBOT_DESCRIPTION
+        self.create_publisher(message_class(description.msgtype), description.name,
+                              latched).publish(self._encoder.robot_description())
+        self._pub_diag = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS.name, 10)
+        self._pub_overlay = {c: self.create_publisher(Image, topics.overlay_topic(c), 2)
                              for c in cfg.cameras} if cfg.publish_overlay else {}
         # Wall-clock timers: frame waits and diagnostics must run even when sim time pauses.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -205,11 +210,11 @@ class TrackerNode(Node):
             self.create_timer(FLUSH_PERIOD_S, self._flush, clock=self._steady)
 
     def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
-        if camera not in self._size_mismatch:
+        if self._inputs.accepts(camera):
             self._on_camera_frame(camera, stamp_ns_of(msg), msg)
 
     def _on_part(self, camera: str, part: str, msg: Image | SalientPoints) -> None:
-        if camera in self._size_mismatch:
+        if not self._inputs.accepts(camera):
             return
         cam = self._by_name[camera]
         try:
@@ -231,49 +236,21 @@ class TrackerNode(Node):
         """(Executor thread.) One camera's frame, image message or assembled features, into
         the synchronizer; complete sets go to the pipeline threads."""
         now = time.monotonic()
-        self._frames[camera] += 1
-        self._last_frame_s[camera] = now
-        self._first_frame_s.setdefault(camera, now)
+        self._inputs.frame(camera, now)
         for synced in self._sync.add(camera, stamp_ns, item):
             assert self._pipeline is not None
             self._pipeline.offer(synced, now)
 
     def _on_info(self, camera: str, msg: CameraInfo) -> None:
-        self._info_s[camera] = time.monotonic()
-        cam = self._by_name[camera]
         try:
             width, height, K, _, _ = intrinsics_from_info(msg, camera)
         except HandTrackerError as err:
             self._log_throttled(f'{camera}/camera_info', 'error',
                                 f'{err}; using the rig intrinsics')
             return
-        if (width, height) != (cam.width, cam.height):
-            problem = (f'{camera}: camera_info says {width}x{height} but the rig says '
-                       f'{cam.width}x{cam.height}; dropping {camera} frames')
-            self._problems[camera] = problem
-            self._size_mismatch.add(camera)
-            self._log_throttled(f'{camera}/camera_info', 'error', problem)
-            return
-        self._size_mismatch.discard(camera)
-        self._problems.pop(camera, None)
-        if not np.allclose(K, cam.K, rtol=1e-3, atol=1e-3):
-            self._log_throttled(f'{camera}/camera_info', 'warning',
-                                f'{camera}: camera_info K differs from the rig; using the rig')
-
-    def _input_problems(self, now: float) -> dict[str, str]:
-        """Per camera: size mismatch, frames without camera_info, silent while others send."""
-        problems = dict(self._problems)
-        newest = max(self._last_frame_s.values(), default=None)
-        for cam in self.config.cameras:
-            if cam not in self._info_s and now - self._first_frame_s.get(cam, now) > \
-                    INFO_GRACE_S:
-                problems.setdefault(cam, f'no camera_info on {cam}/camera_info; using the '
-                                         'rig intrinsics')
-            last = self._last_frame_s.get(cam)
-            if newest is not None and (last is None or newest - last > SILENT_S):
-                problems.setdefault(cam, f'{cam}: no frames for more than {SILENT_S:.0f} s '
-                                         'while other cameras send; no sets can be formed')
-        return problems
+        verdict = self._inputs.camera_info(camera, width, height, K, time.monotonic())
+        if verdict is not None:
+            self._log_throttled(f'{camera}/camera_info', *verdict)
 
     @staticmethod
     def _new_period() -> dict[str, Any]:
@@ -295,16 +272,15 @@ class TrackerNode(Node):
             self.get_logger().warning(text)
 
     def _diagnose(self) -> None:
-        now = time.monotonic()
-        problems = self._input_problems(now)
-        for problem in set(problems.values()) - set(self._problems.values()):
+        problems = self._inputs.problems(time.monotonic())
+        for problem in set(problems.values()) - set(self._inputs.mismatches.values()):
             self._log_throttled(problem, 'warning', problem)
         with self._lock:
             period, self._period = self._period, self._new_period()
             status, reinits = self._status, self._reinits
         health = outputs.TrackerHealth(
             period_s=self.config.diagnostics_period_s,
-            frames={c: self._frames[c] for c in self.config.cameras},
+            frames=self._inputs.take_frame_counts(),
             camera_problems=MappingProxyType(problems),
             assembler_counts={c: dict(a.counts) for c, a in self._assemblers.items()},
             sync=self._sync.stats, processed=period['processed'],
@@ -312,7 +288,6 @@ class TrackerNode(Node):
             latencies_s=period['latencies_s'],
             processing_s=period['processing_s'], iterations=period['iterations'],
             confidence=period['confidence'], status=status, reinitializations=reinits)
-        self._frames.clear()
         self._pub_diag.publish(outputs.diagnostics_msg(
             self.get_name(), health, self.get_clock().now().nanoseconds))
 
@@ -359,13 +334,9 @@ class TrackerNode(Node):
 
     def _publish(self, result: TrackResult, observations: FrameObservations,
                  processing_s: float) -> None:
-        frame_id = self.config.world_frame
-        if result.status == TrackStatus.TRACKING:
-            self._pub_joints.publish(outputs.joint_state_msg(result, frame_id))
-        faces = self._model.faces if self.config.publish_mesh else None
-        self._pub_markers.publish(outputs.marker_array_msg(result, faces, frame_id))
-        self._pub_state.publish(outputs.hand_state_msg(result, self._model, frame_id,
-                                                       processing_s))
+        for topic, msg in self._encoder.messages(result, processing_s):
+            if topic in self._pubs:
+                self._pubs[topic].publish(msg)
         if self._pub_overlay:
             self._publish_overlays(result, observations)
 

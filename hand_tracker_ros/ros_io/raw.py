@@ -4,8 +4,8 @@ Also :func:`parameter_list`, with which the ``hand-tracker play``/``record`` ver
 nodes in-process with their options as parameter overrides.
 
 Message classes come from the ROS 2 type name (``pkg/msg/Name``) through
-``importlib.import_module('pkg.msg')``: ``rosidl_runtime_py`` is not on PyPI, and the generated
-``pkg.msg`` module is all rclpy needs to create a raw publisher or subscription.
+:func:`hand_tracker_ros.ros_io.message_kit.message_class`: the generated ``pkg.msg`` module is
+all rclpy needs to create a raw publisher or subscription.
 
 QoS. A player offers what the recorded publishers offered (best effort for camera topics,
 reliable otherwise). A recorder matches the live publishers: a reliable subscription does not
@@ -15,7 +15,6 @@ transient-local only if every publisher offers it (latched topics such as ``/tf_
 """
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -26,35 +25,7 @@ from rclpy.subscription import Subscription
 from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rosgraph_msgs.msg import Clock
 
-from hand_tracker_ros.errors import BagFormatError
-
 NS_PER_S = 1_000_000_000
-
-
-def message_class(msgtype: str) -> type:
-    """Return the rclpy message class of a ROS 2 type name such as ``sensor_msgs/msg/Image``.
-
-    Raises
-    ------
-    BagFormatError
-        If the name is malformed, its ``pkg.msg`` module cannot be imported (package not
-        installed or workspace not sourced), or the module has no such message.
-    """
-    package, kind, name = (msgtype.split('/') + ['', ''])[:3]
-    if kind != 'msg' or not package or not name:
-        msg = f'type {msgtype!r} is not a ROS 2 message type name (pkg/msg/Name)'
-        raise BagFormatError(msg)
-    try:
-        module = importlib.import_module(f'{package}.msg')
-    except ImportError as err:
-        msg = (f'type {msgtype!r}: module {package}.msg cannot be imported ({err}); install '
-               f'the {package} interface package or source the workspace that builds it')
-        raise BagFormatError(msg) from err
-    cls = getattr(module, name, None)
-    if not isinstance(cls, type):
-        msg = f'type {msgtype!r}: module {package}.msg has no message {name!r}'
-        raise BagFormatError(msg)
-    return cls
 
 
 def parameter_list(overrides: Mapping[str, Any]) -> list[Parameter]:

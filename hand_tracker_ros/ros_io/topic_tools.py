@@ -22,7 +22,8 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from hand_tracker_ros.errors import HandTrackerError
-from hand_tracker_ros.ros_io.raw import matching_qos, message_class
+from hand_tracker_ros.ros_io.message_kit import message_class
+from hand_tracker_ros.ros_io.raw import matching_qos
 
 _SPIN_S = 0.1
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hand_tracker_ros import topics
 from hand_tracker_ros.bags.convert import (
     CameraInfoValues,
     HandStateValues,
@@ -36,8 +37,8 @@ from hand_tracker_ros.progress import progress
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SyntheticFrame, SyntheticSequence
 
-GT_JOINTS_TOPIC = '/hand/ground_truth/joint_states'
-GT_STATE_TOPIC = '/hand/ground_truth/state'
+GT_JOINTS_TOPIC = topics.GT_JOINT_STATES.absolute
+GT_STATE_TOPIC = topics.GT_STATE.absolute
 IMAGE_FORMATS = ('raw', 'jpeg', 'png')
 
 

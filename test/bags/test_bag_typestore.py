@@ -17,6 +17,8 @@ HAND_STATE = 'hand_tracker_msgs/msg/HandState'
 # Pinned on purpose: a change means the wire type changed, so recorded bags and running nodes
 # built from the old .msg files no longer match. Update it only together with the .msg edit.
 HAND_STATE_RIHS01 = 'RIHS01_269f70e01c144d5ab45ba0d3ce2b810ae9a1ce1029676e6c8f764c111f1b6988'
+# ROS 2's tf2_msgs/msg/TFMessage (the type real /tf publishers and listeners use).
+TF_MESSAGE_RIHS01 = 'RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087'
 
 
 def test_typestore_is_cached_and_has_our_types():
@@ -91,3 +93,18 @@ def test_find_msg_dir_skips_incomplete_directories(tmp_path):
 def test_find_msg_dir_error_lists_searched_dirs(tmp_path):
     with pytest.raises(BagFormatError, match=r'cannot find the hand_tracker_msgs .*absent'):
         find_msg_dir([tmp_path / 'absent'])
+
+
+def test_our_tf2_msgs_definition_is_the_real_tfmessage():
+    """msg_defs/tf2_msgs (built where PyPI has no tf2_msgs) has the hash of ROS 2's TFMessage,
+    so real /tf listeners and bag tools take it."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    text = (Path(__file__).resolve().parents[2] / 'msg_defs' / 'tf2_msgs' / 'msg' /
+            'TFMessage.msg').read_text()
+    kilted = get_typestore(Stores.ROS2_KILTED)
+    store = get_typestore(Stores.EMPTY)
+    store.register({k: v for k, v in kilted.fielddefs.items() if not k.startswith('tf2_msgs/')})
+    store.register(get_types_from_msg(text, 'tf2_msgs/msg/TFMessage'))
+    assert store.hash_rihs01('tf2_msgs/msg/TFMessage') == TF_MESSAGE_RIHS01
+    assert typestore().hash_rihs01('tf2_msgs/msg/TFMessage') == TF_MESSAGE_RIHS01

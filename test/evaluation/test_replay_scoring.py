@@ -13,6 +13,7 @@ from hand_tracker_ros.evaluation.replay import live_summary, score_recording
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
+from hand_tracker_ros.topics import STATE
 
 
 @pytest.fixture(scope='module')
@@ -31,10 +32,10 @@ def test_estimates_received_a_frame_late_are_scored_against_their_own_frame(
     period_ns = stamps[1] - stamps[0]
     recorded = tmp_path / 'recorded'
     with BagWriter(recorded) as writer:
-        writer.add_topic('/hand_state', 'hand_tracker_msgs/msg/HandState')
+        writer.add_topic(STATE.absolute, STATE.msgtype)
         for stamp in stamps:
             exact = dataclasses.replace(truth[stamp], status=1)
-            writer.write('/hand_state', stamp + period_ns, hand_state_msg(exact))
+            writer.write(STATE.absolute, stamp + period_ns, hand_state_msg(exact))
 
     outcome = score_recording(recorded, truth, load_rig(synthetic_bag), rate=0.5)
 
@@ -47,6 +48,6 @@ def test_estimates_received_a_frame_late_are_scored_against_their_own_frame(
     np.testing.assert_allclose(outcome.latencies_ms, 2 * period_ns / 1e6)
     # One estimate per set, a set per period of the bag, played at half speed.
     np.testing.assert_allclose(outcome.estimates_per_s, 0.5 / (period_ns / 1e9))
-    assert outcome.joint_states == 0 and outcome.tracked_share == 0.0   # no /joint_states
+    assert outcome.joint_states == 0 and outcome.tracked_share == 0.0   # no /hand/joint_states
     assert f'{len(stamps)} of {len(stamps)} input sets estimated (100 %)' in \
         live_summary(outcome)

@@ -56,3 +56,16 @@ def test_euler_xzy_gimbal_lock_reconstructs(b: float) -> None:
     a2, b2, c2 = rot.euler_xzy_from_matrix(mat)
     assert a2 == 0.0
     np.testing.assert_allclose(rot.matrix_from_euler_xzy(a2, b2, c2), mat, atol=1e-9)
+
+
+def test_quaternions_are_unit_xyzw_with_w_non_negative(rng) -> None:
+    rotvecs = rng.normal(size=(50, 3)) * 1.5
+    rotvecs[0] = (np.pi, 0.0, 0.0)                                  # w = 0
+    mats = np.array([rot.matrix_from_axis_angle(v) for v in rotvecs])
+    quats = rot.quaternions_xyzw_from_matrices(mats)
+    assert quats.shape == (50, 4) and np.all(quats[:, 3] >= 0.0)
+    np.testing.assert_allclose(np.linalg.norm(quats, axis=1), 1.0, atol=1e-12)
+    angle = np.linalg.norm(rotvecs[1])
+    expected = np.r_[np.sin(angle / 2) * rotvecs[1] / angle, np.cos(angle / 2)]
+    np.testing.assert_allclose(quats[1], expected * np.sign(expected[3]), atol=1e-12)
+    np.testing.assert_allclose(Rotation.from_quat(quats).as_matrix(), mats, atol=1e-12)

@@ -1,4 +1,5 @@
-"""The generated URDF: parses, names, limits, connectivity, and FK equal to the model's."""
+"""The generated URDF: parses, names, limits, connectivity, FK equal to the model's, and
+the TF of a pose (joint_transforms) equal to both."""
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
@@ -7,7 +8,7 @@ import numpy as np
 
 from hand_tracker_ros.geometry.rotations import matrix_from_axis_angle, rot_x, rot_y, rot_z
 from hand_tracker_ros.model.layout import PARAM_NAMES
-from hand_tracker_ros.model.urdf import urdf_text
+from hand_tracker_ros.model.urdf import joint_transforms, urdf_joints, urdf_text
 
 
 def _origin(joint: ET.Element) -> np.ndarray:
@@ -65,3 +66,27 @@ def test_urdf_kinematics_equal_model(model, random_theta) -> None:
     posed = model.pose(theta, jacobian=False)
     for b, name in enumerate(model.part_names):
         np.testing.assert_allclose(poses[name], posed.bone_transforms[b], atol=1e-5)
+
+
+def test_tf_tree_is_the_urdf_tree(model) -> None:
+    root = ET.fromstring(urdf_text(model, root_link='map', prefix='r_'))
+    in_text = [(j.get('name'), j.find('parent').get('link'), j.find('child').get('link'))
+               for j in root.iter('joint')]
+    table = urdf_joints(model, root_link='map', prefix='r_')
+    assert [(j.name, j.parent, j.child) for j in table] == in_text
+
+
+def test_tf_of_a_pose_chains_to_the_model_bones_and_the_urdf_links(model, random_theta) -> None:
+    theta = random_theta(np.random.default_rng(22))
+    joints = urdf_joints(model)
+    transforms = joint_transforms(joints, theta)
+    poses = {'world': np.eye(4)}
+    for joint, T_parent_child in zip(joints, transforms):      # parents come first
+        poses[joint.child] = poses[joint.parent] @ T_parent_child
+    posed = model.pose(theta, jacobian=False)
+    for b, name in enumerate(model.part_names):
+        np.testing.assert_allclose(poses[name], posed.bone_transforms[b], atol=1e-12)
+    from_text = _urdf_fk(ET.fromstring(urdf_text(model)), theta, 'world')
+    assert set(from_text) == set(poses)
+    for link, pose in poses.items():
+        np.testing.assert_allclose(pose, from_text[link], atol=1e-5)    # text: 6 digits

@@ -48,7 +48,7 @@ def listen(node, topics: dict[str, str]) -> dict[str, list[tuple[float, object]]
     """Subscribe ``node`` to ``topics`` (name -> type) with deep queues; return the inbox."""
     from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-    from hand_tracker_ros.ros_io.raw import message_class
+    from hand_tracker_ros.ros_io.message_kit import message_class
 
     inbox: dict[str, list[tuple[float, object]]] = defaultdict(list)
     for topic, msgtype in topics.items():

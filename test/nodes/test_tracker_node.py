@@ -57,10 +57,13 @@ def test_tracker_follows_a_synthetic_sequence(node_process, ros, hand_model, tmp
                                               inputs: str) -> None:
     from diagnostic_msgs.msg import DiagnosticArray
     from hand_tracker_msgs.msg import HandState
-    from rclpy.qos import qos_profile_sensor_data
+    from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
     from sensor_msgs.msg import CameraInfo, Image, JointState
+    from std_msgs.msg import String
+    from tf2_msgs.msg import TFMessage
     from visualization_msgs.msg import MarkerArray
 
+    from hand_tracker_ros.model.urdf import urdf_text
     from hand_tracker_ros.ros_io.images import image_msg
 
     node, spin_until = ros
@@ -77,10 +80,11 @@ def test_tracker_follows_a_synthetic_sequence(node_process, ros, hand_model, tmp
                            '-p', f'initial_pose:={_ros_list(sequence.thetas[0])}',
                            '-p', 'initialization:=initial_pose',
                            '-p', 'publish_overlay:=true', '-p', 'diagnostics_period_s:=0.5')
-    joints, states, markers, diags, overlays = [], [], [], [], []
-    _collect(node, JointState, 'joint_states', joints)
-    _collect(node, HandState, 'hand_state', states)
-    _collect(node, MarkerArray, 'markers', markers)
+    joints, states, markers, diags, overlays, tfs = [], [], [], [], [], []
+    _collect(node, JointState, 'hand/joint_states', joints)
+    _collect(node, HandState, 'hand/state', states)
+    _collect(node, MarkerArray, 'hand/markers', markers)
+    _collect(node, TFMessage, '/tf', tfs)
     _collect(node, DiagnosticArray, '/diagnostics', diags)
     _collect(node, Image, f'{names[0]}/overlay', overlays)
     images = {c: node.create_publisher(Image, f'{c}/image_raw', qos_profile_sensor_data)
@@ -131,6 +135,15 @@ def test_tracker_follows_a_synthetic_sequence(node_process, ros, hand_model, tmp
     status = {s.name: {kv.key: kv.value for kv in s.values} for s in diags[-1].status}
     assert f'tracker: {names[0]} input' in status
     assert status['tracker: tracking']['status'] == 'tracking'
+    # /tf exactly with the JointStates, one transform per URDF joint.
+    assert sorted(_stamp(t.transforms[0]) for t in tfs) == sorted(_stamp(m) for m in joints)
+    assert all(len(t.transforms) == 26 for t in tfs)
+    # robot_description is latched: a subscriber that comes late still gets it.
+    description = []
+    node.create_subscription(String, 'hand/robot_description', description.append,
+                             QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    assert spin_until(lambda: description, 10.0)
+    assert description[0].data == urdf_text(hand_model, root_link='world')
     assert (features is None or features.proc.poll() is None) and tracker.proc.poll() is None
     assert 'Traceback' not in tracker.output()
 
@@ -172,8 +185,8 @@ def test_tracker_survives_bad_input_with_clear_logs(node_process, ros, hand_mode
                            '-p', 'initialization:=initial_pose',
                            '-p', 'diagnostics_period_s:=0.2')
     states, markers = [], []
-    _collect(node, HandState, 'hand_state', states)
-    _collect(node, MarkerArray, 'markers', markers)
+    _collect(node, HandState, 'hand/state', states)
+    _collect(node, MarkerArray, 'hand/markers', markers)
     parts = ('edges', 'edge_orientation', 'mask', 'flow')
     pubs = {(c, p): node.create_publisher(Image, f'{c}/{p}', 10) for c in names for p in parts}
     infos = {c: node.create_publisher(CameraInfo, f'{c}/camera_info', 10) for c in names}

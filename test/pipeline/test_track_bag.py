@@ -9,13 +9,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from hand_tracker_ros.bags.convert import hand_state_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.cli.main import main
 from hand_tracker_ros.model.layout import PARAM_NAMES
-from hand_tracker_ros.pipeline.track_bag import JOINTS_TOPIC, STATE_TOPIC
+from hand_tracker_ros.model.urdf import urdf_text
+from hand_tracker_ros.topics import JOINT_STATES, MARKERS, ROBOT_DESCRIPTION, STATE, TF
+
+JOINTS_TOPIC, STATE_TOPIC = JOINT_STATES.absolute, STATE.absolute
 
 SYNTH = ['--motion', 'pinch', '--frames', '6', '--cameras', '3', '--seed', '1']
 
@@ -89,6 +93,32 @@ def test_estimates_bag_reads_with_the_independent_mcap_readers(raw_estimates: tu
         np.testing.assert_array_equal(
             [(p.x, p.y, p.z) for p in state.keypoints], expected.keypoints_m)
         assert tuple(state.energy_names) == expected.energy_names
+
+
+def test_estimates_bag_holds_the_live_graphs_tf_markers_and_description(
+        raw_estimates: tuple, raw_output: Path, hand_model) -> None:
+    """The same topics as the live tracker: /tf chains from the world frame to every link at
+    the estimate, robot_description is the URDF (latched), one MarkerArray per set."""
+    _, states = raw_estimates
+    with BagReader(raw_output) as bag:
+        assert bag.topics[TF.absolute].msgtype == 'tf2_msgs/msg/TFMessage'
+        assert bag.topics[TF.absolute].count == bag.topics[MARKERS.absolute].count == 6
+        assert bag.topics[ROBOT_DESCRIPTION.absolute].count == 1
+        [(*_, description)] = bag.decoded(topics=[ROBOT_DESCRIPTION.absolute])
+        tfs = [msg for *_, msg in bag.decoded(topics=[TF.absolute])]
+    assert description.data == urdf_text(hand_model, root_link='world')
+    for tf, state in zip(tfs, states, strict=True):
+        poses = {'world': np.eye(4)}
+        for t in tf.transforms:
+            assert t.header.stamp.sec * 10**9 + t.header.stamp.nanosec == state.stamp_ns
+            q, v = t.transform.rotation, t.transform.translation
+            pose = np.eye(4)
+            pose[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+            pose[:3, 3] = (v.x, v.y, v.z)
+            poses[t.child_frame_id] = poses[t.header.frame_id] @ pose
+        bones = hand_model.pose(state.joint_positions, jacobian=False).bone_transforms
+        for b, name in enumerate(hand_model.part_names):
+            np.testing.assert_allclose(poses[name], bones[b], atol=1e-12)
 
 
 @pytest.mark.parametrize('image_format', ['png', 'jpeg'])

@@ -1,9 +1,13 @@
-"""TrackResult -> ROS messages: names, stamps, every HandState field, marker ids, DELETEALL,
+"""TrackResult -> ROS messages (ros_io.estimates): names, stamps, every HandState field, marker
+ids, DELETEALL, TF, robot_description, the same messages from the rclpy and the rosbags kit;
 diagnostics; and the feature-topic decoding / frame assembly of ros_io.observations."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.model.layout import PARAM_NAMES
@@ -26,16 +30,21 @@ def test_neutral_pose_default_matches_the_model(hand_model) -> None:
     np.testing.assert_array_equal(NEUTRAL_POSE, hand_model.neutral_theta())
 
 
-def test_joint_and_hand_state_carry_the_estimate(hand_model) -> None:
-    from hand_tracker_ros.ros_io import outputs
+def _encoder(model, faces=None, frame='world'):
+    from hand_tracker_ros.ros_io.estimates import EstimateEncoder
+    from hand_tracker_ros.ros_io.message_kit import RclpyKit
 
+    return EstimateEncoder(RclpyKit(), model, frame, faces)
+
+
+def test_joint_and_hand_state_carry_the_estimate(hand_model) -> None:
     result = _result(hand_model, TrackStatus.TRACKING)
-    joints = outputs.joint_state_msg(result, 'world')
+    joints = _encoder(hand_model).joint_state(result)
     assert joints.name == list(PARAM_NAMES)
     np.testing.assert_array_equal(joints.position, result.theta)
     assert (joints.header.stamp.sec, joints.header.stamp.nanosec) == divmod(STAMP_NS, 10**9)
     assert joints.header.frame_id == 'world'
-    state = outputs.hand_state_msg(result, hand_model, 'map', 0.125)
+    state = _encoder(hand_model, frame='map').hand_state(result, 0.125)
     assert state.status == state.STATUS_TRACKING and state.header.frame_id == 'map'
     assert state.joint_names == list(PARAM_NAMES) and state.keypoint_names == list(KEYPOINT_NAMES)
     keypoints = np.array([(p.x, p.y, p.z) for p in state.keypoints])
@@ -43,20 +52,80 @@ def test_joint_and_hand_state_carry_the_estimate(hand_model) -> None:
     tips = np.array([(p.x, p.y, p.z) for p in state.fingertips])
     np.testing.assert_allclose(tips, result.posed.fingertips_m)
     assert len(state.shape_names) == len(state.shape_parameters) == 19
+    assert list(state.energy_names) == ['collision', 'edges']          # sorted
     assert dict(zip(state.energy_names, state.energy_costs)) == {'edges': 1.5, 'collision': 0.25}
     assert state.iterations == 17 and state.processing_time == pytest.approx(0.125)
     assert state.confidence == pytest.approx(0.8)
-    lost = outputs.hand_state_msg(_result(hand_model, TrackStatus.LOST), hand_model, 'map', 0.0)
+    lost = _encoder(hand_model).hand_state(_result(hand_model, TrackStatus.LOST), 0.0)
     assert lost.status == lost.STATUS_LOST and len(lost.joint_positions) == len(PARAM_NAMES)
+
+
+def test_a_set_gives_every_output_topic_and_lost_ones_no_pose(hand_model) -> None:
+    from hand_tracker_ros import topics
+
+    encoder = _encoder(hand_model)
+    tracked = encoder.messages(_result(hand_model, TrackStatus.TRACKING), 0.1)
+    assert [t for t, _ in tracked] == list(topics.ESTIMATES)
+    lost = encoder.messages(_result(hand_model, TrackStatus.LOST), 0.1)
+    assert [t for t, _ in lost] == [topics.STATE, topics.MARKERS]
+
+
+def test_tf_chains_from_the_world_frame_to_every_bone(hand_model) -> None:
+    result = _result(hand_model, TrackStatus.TRACKING)
+    tf = _encoder(hand_model, frame='map').tf(result)
+    poses = {'map': np.eye(4)}
+    for t in tf.transforms:        # parents first
+        assert t.header.stamp.nanosec == STAMP_NS % 10**9
+        q = t.transform.rotation
+        pose = np.eye(4)
+        pose[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+        v = t.transform.translation
+        pose[:3, 3] = (v.x, v.y, v.z)
+        poses[t.child_frame_id] = poses[t.header.frame_id] @ pose
+    assert len(tf.transforms) == len(PARAM_NAMES)
+    for b, name in enumerate(hand_model.part_names):
+        np.testing.assert_allclose(poses[name], result.posed.bone_transforms[b], atol=1e-12)
+
+
+def test_robot_description_is_the_urdf_rooted_at_the_world_frame(hand_model) -> None:
+    from hand_tracker_ros.model.urdf import urdf_text
+
+    text = _encoder(hand_model, frame='map').robot_description().data
+    assert text == urdf_text(hand_model, root_link='map')
+    repo_urdf = (Path(__file__).resolve().parents[2] / 'urdf' / 'hand.urdf').read_text()
+    assert _encoder(hand_model).robot_description().data + '\n' == repo_urdf
+
+
+def test_the_rclpy_and_the_rosbags_kit_build_the_same_messages(hand_model) -> None:
+    """One conversion, two runtimes: the bag's CDR decodes to the node's message (both
+    through CDR, which rounds the float32 fields)."""
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from hand_tracker_ros.bags.typestore import typestore
+    from hand_tracker_ros.ros_io.estimates import EstimateEncoder
+    from hand_tracker_ros.ros_io.message_kit import RosbagsKit, message_class
+
+    bag = EstimateEncoder(RosbagsKit(), hand_model, 'world', hand_model.faces)
+    live = _encoder(hand_model, hand_model.faces)
+    for status in TrackStatus:
+        result = _result(hand_model, status)
+        pairs = list(zip(bag.messages(result, 0.5), live.messages(result, 0.5)))
+        assert pairs and all(b[0] == lv[0] for b, lv in pairs)
+        for (topic, from_bag), (_, from_node) in pairs:
+            cls = message_class(topic.msgtype)
+            raw = typestore().serialize_cdr(from_bag, topic.msgtype)
+            assert deserialize_message(bytes(raw), cls) == \
+                deserialize_message(serialize_message(from_node), cls)
+    raw = typestore().serialize_cdr(bag.robot_description(), 'std_msgs/msg/String')
+    assert deserialize_message(bytes(raw), message_class('std_msgs/msg/String')) == \
+        live.robot_description()
 
 
 def test_markers_have_stable_ids_and_deleteall_when_lost(hand_model) -> None:
     from visualization_msgs.msg import Marker
 
-    from hand_tracker_ros.ros_io import outputs
-
     result = _result(hand_model, TrackStatus.TRACKING)
-    array = outputs.marker_array_msg(result, None, 'world')
+    array = _encoder(hand_model).markers(result)
     assert [(m.ns, m.id, m.type) for m in array.markers] == [
         ('skeleton', 0, Marker.LINE_LIST), ('joints', 0, Marker.SPHERE_LIST),
         ('fingertips', 0, Marker.SPHERE_LIST)]
@@ -66,11 +135,12 @@ def test_markers_have_stable_ids_and_deleteall_when_lost(hand_model) -> None:
     first = np.array([(p.x, p.y, p.z) for p in skeleton.points[:2]])
     np.testing.assert_allclose(first, result.posed.keypoints_m[[0, 1]])
     assert all(m.header.stamp.nanosec == STAMP_NS % 10**9 for m in array.markers)
-    with_mesh = outputs.marker_array_msg(result, hand_model.faces, 'world')
+    assert all(m.pose.orientation.w == 1.0 for m in array.markers)
+    with_mesh = _encoder(hand_model, hand_model.faces).markers(result)
     mesh = with_mesh.markers[-1]
     assert (mesh.ns, mesh.type) == ('mesh', Marker.TRIANGLE_LIST)
     assert len(mesh.points) == 3 * len(hand_model.faces)
-    lost = outputs.marker_array_msg(_result(hand_model, TrackStatus.LOST), None, 'world')
+    lost = _encoder(hand_model).markers(_result(hand_model, TrackStatus.LOST))
     assert [m.action for m in lost.markers] == [Marker.DELETEALL]
 
 

@@ -38,7 +38,7 @@ def test_custom_messages_arrive_intact(ros_node) -> None:
 
     node, executor = ros_node
     got: dict[str, object] = {}
-    node.create_subscription(HandState, 'hand_state', lambda m: got.setdefault('hs', m), 10)
+    node.create_subscription(HandState, 'hand/state', lambda m: got.setdefault('hs', m), 10)
     node.create_subscription(SalientPoints, 'salient_points',
                              lambda m: got.setdefault('sp', m), 10)
     proc = subprocess.Popen([sys.executable, str(FIXTURES / 'publish_custom_msgs.py'), '20'])
