@@ -112,9 +112,8 @@ def _collides(model: HandModel, theta: FloatArray) -> bool:
     return len(intersecting_pairs(vertices, model.faces, parts, model.adjacent_parts)) > 0
 
 
-def _random(duration_s: float, seed: int) -> list[Keyframe]:
+def _random(duration_s: float, seed: int, model: HandModel) -> list[Keyframe]:
     rng = np.random.default_rng(seed)
-    model = HandModel.build()
     lower, upper = joint_limits()
     mid, half = 0.5 * (lower + upper), 0.4 * (upper - lower)  # 80 % of each range
     times = np.cumsum(np.r_[0.0, rng.uniform(0.4, 0.8, int(duration_s / 0.4) + 2)])
@@ -135,12 +134,17 @@ def _random(duration_s: float, seed: int) -> list[Keyframe]:
     return frames
 
 
-def keyframes(name: str, duration_s: float, seed: int = 0) -> list[Keyframe]:
-    """Keyframes of motion ``name`` covering ``[0, duration_s]``."""
+def keyframes(name: str, duration_s: float, seed: int = 0,
+              model: HandModel | None = None) -> list[Keyframe]:
+    """Keyframes of motion ``name`` covering ``[0, duration_s]``.
+
+    ``model`` (default: the default hand) is the hand whose self-intersections the random
+    motion avoids.
+    """
     builders = {'tapping': _tapping, 'fist': _fist, 'pinch': _pinch, 'grasp': _grasp,
                 'wrist': _wrist}
     if name == 'random':
-        return _random(duration_s, seed)
+        return _random(duration_s, seed, model if model is not None else HandModel.build())
     if name not in builders:
         msg = f'unknown motion {name!r}; known: {", ".join(MOTIONS)}'
         raise ConfigError(msg)
@@ -157,8 +161,9 @@ def keyframe_theta(frame: Keyframe) -> FloatArray:
     return np.clip(theta, lower, upper)
 
 
-def trajectory(name: str, n_frames: int, fps: float, *, seed: int = 0) -> FloatArray:
-    """Pose of every frame of motion ``name``.
+def trajectory(name: str, n_frames: int, fps: float, *, seed: int = 0,
+               model: HandModel | None = None) -> FloatArray:
+    """Pose of every frame of motion ``name`` (``model``: see :func:`keyframes`).
 
     Returns
     -------
@@ -168,7 +173,7 @@ def trajectory(name: str, n_frames: int, fps: float, *, seed: int = 0) -> FloatA
     if n_frames < 1 or fps <= 0.0:
         msg = f'need n_frames >= 1 and fps > 0, got {n_frames}, {fps}'
         raise ConfigError(msg)
-    frames = keyframes(name, n_frames / fps, seed)
+    frames = keyframes(name, n_frames / fps, seed, model)
     key_t = np.array([f.time_s for f in frames])
     key_theta = np.stack([keyframe_theta(f) for f in frames])
     t = np.arange(n_frames) / fps

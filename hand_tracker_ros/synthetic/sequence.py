@@ -66,7 +66,8 @@ class SyntheticSequence:
         self.model = model or HandModel.build()
         self.rig = CameraRig.ring(config.n_cameras, config.width, config.height,
                                   radius_m=config.radius_m, fov_deg=config.fov_deg)
-        self.thetas = trajectory(config.motion, config.n_frames, config.fps, seed=config.seed)
+        self.thetas = trajectory(config.motion, config.n_frames, config.fps, seed=config.seed,
+                                 model=self.model)
 
     def __len__(self) -> int:
         return self.config.n_frames
