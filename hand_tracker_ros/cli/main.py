@@ -10,12 +10,12 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from hand_tracker_ros.cli import (bag_info, demo, evaluate, launch, params, play, record,
-                                  replay_eval, robustness, synth, topics, track, train_detector,
-                                  urdf, warmup)
+from hand_tracker_ros.cli import (bag_info, calibrate, demo, evaluate, launch, params, play,
+                                  record, replay_eval, robustness, synth, topics, track,
+                                  train_detector, urdf, warmup)
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (bag_info, demo, evaluate, launch, params, play, record, replay_eval, robustness, synth,
+VERBS = (bag_info, calibrate, demo, evaluate, launch, params, play, record, replay_eval, robustness, synth,
          topics, track, train_detector, urdf, warmup)
 
 

@@ -2,8 +2,9 @@
 
 The repository's ``urdf/hand.urdf`` (installed to ``share/hand_tracker_ros/urdf/``) is this
 command's output with the defaults (a test checks it). With ``--shape SHAPE.yaml`` (from
-``hand-tracker calibrate``) the links and visuals have that hand's size: give it to ``robot_state_publisher`` as
-``robot_description`` and the tracker's ``joint_states`` pose it.
+``hand-tracker calibrate``) the links and visuals have that hand's size. Give it to
+``robot_state_publisher`` as ``robot_description`` and the tracker's ``joint_states`` pose
+it.
 """
 from __future__ import annotations
 
