@@ -11,7 +11,7 @@ from typing import Any
 
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.shape_file import shape_or_default
-from hand_tracker_ros.synthetic.motions import MOTIONS
+from hand_tracker_ros.synthetic.motions import ALL_MOTIONS
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import IMAGE_FORMATS, write_sequence
 
@@ -21,7 +21,7 @@ def add_parser(sub: Any) -> None:
     parser = sub.add_parser('synth', help='write a synthetic sequence with ground truth',
                             description=__doc__)
     parser.add_argument('--out', required=True, help='output directory (bag/ and rig.yaml)')
-    parser.add_argument('--motion', default='grasp', choices=MOTIONS)
+    parser.add_argument('--motion', default='grasp', choices=ALL_MOTIONS)
     parser.add_argument('--cameras', type=int, default=4, help='1-8 cameras (default 4)')
     parser.add_argument('--frames', type=int, default=120)
     parser.add_argument('--fps', type=float, default=30.0)
