@@ -90,16 +90,28 @@ class FrameTerms:
         views = model_views(posed, model.faces, _mesh_edges(model), tuple(cameras))
         context = RoundContext(posed, views, observations, None)
         self.correspondences = tuple(t.energy.correspond(context) for t in self.terms)
+        # The terms read only these rows (the same contract as the tracker's Problem): only
+        # they are displaced and get Jacobian rows.
+        self._ids = np.unique(np.concatenate(
+            [model.fingertip_vertex_ids] + [t.energy.jacobian_vertices(c) for t, c in
+                                            zip(self.terms, self.correspondences)]))
+        self._rig = rig.subset(self._ids)
 
     def shaped(self, theta: FloatArray, x: FloatArray, *, jacobian: bool) -> ShapedPose:
-        """The hand at ``theta`` (P,) and shape ``x`` (S,)."""
-        posed = self.model.pose(theta, jacobian=jacobian)
-        moved = self.rig.displace(posed._fk, x)
+        """The hand at ``theta`` (P,) and shape ``x`` (S,); only the rows the terms read are
+        displaced and have Jacobian rows (the others are the model's, with zero rows)."""
+        ids = self._ids
+        posed = self.model.pose(theta, jacobian=jacobian, jacobian_vertices=ids)
+        moved = self._rig.displace(posed._fk, x, jacobian=jacobian)
+        vertices = posed.vertices_m.copy()
+        vertices[ids] += moved.displacement_m
         jac = None
         if jacobian:
-            jac = np.concatenate([posed.vertices_jac + moved.pose_jac, moved.shape_jac], axis=2)
-        return ShapedPose(np.concatenate([theta, x]), posed.vertices_m + moved.displacement_m,
-                          jac, self.model.fingertip_vertex_ids)
+            jac = np.zeros((vertices.shape[0], 3, theta.size + S))
+            jac[ids, :, :theta.size] = posed.vertices_jac[ids] + moved.pose_jac
+            jac[ids, :, theta.size:] = moved.shape_jac
+        return ShapedPose(np.concatenate([theta, x]), vertices, jac,
+                          self.model.fingertip_vertex_ids)
 
     def residuals(self, theta: FloatArray, x: FloatArray, *, jacobian: bool
                   ) -> tuple[FloatArray, FloatArray | None]:

@@ -65,15 +65,15 @@ class ShapeDisplacement:
     Attributes
     ----------
     displacement_m : (N, 3) float64
-    shape_jac : (N, 3, S) float64
-        ``dD/dx`` (m per shape unit; SHAPE_NAMES order).
-    pose_jac : (N, 3, P) float64
-        ``dD/dtheta`` (zero at ``x = x0``).
+    shape_jac : (N, 3, S) float64 or None
+        ``dD/dx`` (m per shape unit; SHAPE_NAMES order); None without ``jacobian``.
+    pose_jac : (N, 3, P) float64 or None
+        ``dD/dtheta`` (zero at ``x = x0``); None without ``jacobian``.
     """
 
     displacement_m: FloatArray
-    shape_jac: FloatArray
-    pose_jac: FloatArray
+    shape_jac: FloatArray | None
+    pose_jac: FloatArray | None
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,6 +114,11 @@ class ShapeRig:
         """The 21 keypoints of ``model`` (KEYPOINT_BONES)."""
         return cls(model.shape.to_vector(), np.asarray(KEYPOINT_BONES, dtype=np.int64),
                    model.keypoint_local_m, model.rest.base_m, model.rest.lengths_m)
+
+    def subset(self, ids: IntArray) -> ShapeRig:
+        """The rig of the points ``ids`` (K,) int64 only."""
+        return ShapeRig(self.x0, self.bones[ids], self.local_m[ids], self.base_m,
+                        self.lengths_m)
 
     def _local(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Deformed local coordinates ``q - q0`` (N, 3) and ``dq/dx`` (N, 3, S)."""
@@ -174,8 +179,10 @@ class ShapeRig:
                     dw[b, 1 + prev, 1, seg] = x[_SCALE]
         return w, dw
 
-    def displace(self, fk: kinematics.FKResult, x: FloatArray) -> ShapeDisplacement:
-        """``D``, ``dD/dx`` and ``dD/dtheta`` at the posed skeleton ``fk`` and shape ``x`` (S,)."""
+    def displace(self, fk: kinematics.FKResult, x: FloatArray, *, jacobian: bool = True
+                 ) -> ShapeDisplacement:
+        """``D`` and, with ``jacobian``, ``dD/dx`` and ``dD/dtheta`` at the posed skeleton
+        ``fk`` and shape ``x`` (S,)."""
         rot = fk.bone_transforms[:, :3, :3]
         moves = kinematics.MOVES.astype(np.float64)        # (P, B)
         w, dw = self._origins(x)
@@ -185,16 +192,18 @@ class ShapeRig:
             carrier[b, 1:] = 1 + 3 * ((b - 1) // 3) + np.arange(3)
         world = np.einsum('bpij,bpj->bpi', rot[carrier], w)             # (B, 4, 3)
         origin = world.sum(axis=1)
+        dq, dq_jac = self._local(x)
+        r = rot[self.bones]
+        own = np.einsum('nij,nj->ni', r, dq)
+        disp = origin[self.bones] + own
+        if not jacobian:
+            return ShapeDisplacement(disp, None, None)
         origin_jac = np.einsum('bpij,bpjs->bis', rot[carrier], dw)     # (B, 3, S)
         axes = fk.axes.copy()
         axes[:3] = 0.0                                                   # translations
         # d(R w)/dtheta_k = a_k x (R w) for the DOF moving the carrier.
         origin_pose = np.einsum('bpk,bpki->bik', moves.T[carrier],
                                 np.cross(axes[None, None], world[:, :, None, :]))
-        dq, dq_jac = self._local(x)
-        r = rot[self.bones]
-        own = np.einsum('nij,nj->ni', r, dq)
-        disp = origin[self.bones] + own
         shape_jac = origin_jac[self.bones] + np.einsum('nij,njs->nis', r, dq_jac)
         own_pose = np.cross(axes[None], own[:, None, :]) * moves.T[self.bones][:, :, None]
         pose_jac = origin_pose[self.bones] + own_pose.transpose(0, 2, 1)
