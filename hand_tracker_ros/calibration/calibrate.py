@@ -23,9 +23,9 @@ The result reports, for the last pass's frames, the root-mean-square residual of
 term with the start shape (first-pass poses) and with the fitted one; the correspondences are
 found on each model, so the row counts differ (the costs ``0.5 w |r|^2`` are not comparable
 for that reason: a model that is too small has fewer matched rows). It also gives the
-relative standard deviation of every shape field from the data alone; fields above
-``warn_relative_std`` are named as not constrained by the sequence (their fitted value is
-mostly the prior's).
+relative standard deviation of every shape field from the data alone; lengths whose standard
+deviation exceeds ``warn_std_m`` and factors whose relative one exceeds ``warn_relative_std``
+are named as not constrained by the sequence (their fitted value is mostly the prior's).
 """
 from __future__ import annotations
 
@@ -75,9 +75,12 @@ class CalibrationConfig:
                         'further one with the shape fitted so far', low=1, high=10)
     candidates: float = param(0.5, 'share of the tracked frames, most confident first, the '
                               'frames are picked from', low=0.01, high=1.0)
-    warn_relative_std: float = param(0.03, 'warn about shape fields whose relative standard '
-                                     'deviation from the data alone exceeds this', low=0.0,
-                                     high=10.0)
+    warn_std_m: float = param(0.0015, 'warn about lengths whose standard deviation from the '
+                              'data alone (times the scale) exceeds this', unit='m', low=0.0,
+                              high=1.0)
+    warn_relative_std: float = param(0.03, 'warn about the scale and thickness factors when '
+                                     'their relative standard deviation from the data alone '
+                                     'exceeds this', low=0.0, high=10.0)
     solver: SolverConfig = nested(SolverConfig)
     pipeline: PipelineConfig = nested(_trusting_pipeline)
     refine_pipeline: PipelineConfig = nested(PipelineConfig)
@@ -101,7 +104,7 @@ class CalibrationResult:
     relative_std : (S,) float64
         Relative standard deviation of every shape field (SHAPE_NAMES order) from the data.
     unconstrained : tuple of str
-        Fields whose ``relative_std`` exceeds ``warn_relative_std``.
+        Fields the data do not constrain (``warn_std_m``, ``warn_relative_std``).
     tracked_frames : int
         Frames of the bag the fitted ones were picked from.
     """
@@ -155,6 +158,17 @@ def _rms(frames: Sequence[FrameTerms], thetas: FloatArray, x: FloatArray
         total, rows = sum(s[name][0] for s in squares), sum(s[name][1] for s in squares)
         out[name] = (float(np.sqrt(total / rows)) if rows else 0.0, rows)
     return out
+
+
+def unconstrained_fields(relative_std: FloatArray, x: FloatArray, config: CalibrationConfig
+                         ) -> tuple[str, ...]:
+    """Names of the shape fields the data do not constrain: lengths whose standard
+    deviation, times the scale ``x[0]``, exceeds ``warn_std_m``, and the factors (scale,
+    thickness) whose relative one exceeds ``warn_relative_std``; ``relative_std`` and ``x``
+    are (S,) float64."""
+    limit = np.where([n.endswith('_m') for n in SHAPE_NAMES],
+                     config.warn_std_m / np.abs(x * x[0]), config.warn_relative_std)
+    return tuple(n for n, s, lim in zip(SHAPE_NAMES, relative_std, limit) if not s <= lim)
 
 
 def _track(bag: str | Path, rig_path: Path, config: PipelineConfig, shape: HandShape
@@ -221,6 +235,6 @@ def calibrate_bag(bag: str | Path, *, rig_path: str | Path | None = None,
     final_rms = _rms(frames, thetas, x)
     ne = normal_equations(frames, thetas, x, x_bar, config.solver.prior_weight * len(frames))
     std = shape_uncertainty(ne, x)
-    loose = tuple(n for n, s in zip(SHAPE_NAMES, std) if not s <= config.warn_relative_std)
+    loose = unconstrained_fields(std, x, config)
     return CalibrationResult(HandShape.from_vector(x), initial, stamps, thetas, initial_rms,
                              final_rms, std, loose, n_candidates)

@@ -41,21 +41,23 @@ def report(result: CalibrationResult) -> str:
     lines = [f'fitted {len(result.stamps_ns)} frames (picked from the {result.tracked_frames} '
              'most confidently tracked)',
              f'{"field":<22} {"start":>9} {"fitted":>9} {"change":>8} {"+-(data)":>9}']
-    for name, a, b, s in zip(SHAPE_NAMES, start, fitted, result.relative_std):
+    spreads = [f'{1e3 * s * b:.2f} mm' if name.endswith('_m') else f'{100 * s:.2f} %'
+               for name, b, s in zip(SHAPE_NAMES, fitted, result.relative_std)]
+    for name, a, b, spread in zip(SHAPE_NAMES, start, fitted, spreads):
         unit = 1e3 if name.endswith('_m') else 1.0
         label = name.removesuffix('_m') + (' (mm)' if unit > 1 else '')
         lines.append(f'{label:<22} {unit * a:9.3f} {unit * b:9.3f} {100 * (b / a - 1):+7.2f}% '
-                     f'{100 * s:8.2f}%')
+                     f'{spread:>10}')
     lines.append('RMS residual of the frames, start shape -> fitted shape:')
     for name, (rms, rows) in result.initial_rms.items():
         unit, factor = ('mm', 1e3) if name == 'silhouette' else ('px', 1.0)
         rms_after, rows_after = result.final_rms[name]
         lines.append(f'  {name:<11} {factor * rms:7.3f} {unit} ({rows} rows) -> '
                      f'{factor * rms_after:7.3f} {unit} ({rows_after} rows)')
-    lines += [f'warning: the sequence does not constrain {name} (+-{100 * s:.1f} % from the '
-              'data alone); its value stays near the start shape'
-              for name, s in zip(SHAPE_NAMES, result.relative_std)
-              if name in result.unconstrained]
+    lines += [f'warning: the sequence does not constrain {name} (+-{spread} from the data '
+              'alone); its value stays near the start shape'
+              for name, spread in zip(SHAPE_NAMES, spreads) if name in result.unconstrained]
+    lines.append('(lengths before the scale; +-(data): standard deviation from the data alone)')
     return '\n'.join(lines)
 
 

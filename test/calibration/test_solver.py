@@ -57,3 +57,23 @@ def test_select_frames_spreads_and_starts_at_the_most_confident() -> None:
     thetas[:, 10] = [0.0, 0.01, 1.0, 1.01, 2.0, 0.02]
     picked = select_frames(thetas, np.array([0.1, 0.9, 0.2, 0.2, 0.2, 0.2]), 3)
     np.testing.assert_array_equal(picked, [1, 2, 4])
+
+
+def test_unconstrained_lengths_are_judged_in_millimetres() -> None:
+    from hand_tracker_ros.calibration.calibrate import (CalibrationConfig, CalibrationResult,
+                                                        unconstrained_fields)
+    from hand_tracker_ros.cli.calibrate import report
+
+    x = HandShape(scale=1.1).to_vector()
+    std = np.full(S, 0.01)
+    std[-2] = 0.2                            # pinky distal: 0.2 * 17.7 mm * 1.1 = 3.9 mm
+    std[5] = 0.04                            # thumb distal: 0.04 * 30 mm * 1.1 = 1.3 mm
+    config = CalibrationConfig(warn_std_m=0.0015, warn_relative_std=0.03)
+    assert unconstrained_fields(std, x, config) == ('pinky_distal_m',)
+    std[0] = 0.05
+    loose = unconstrained_fields(std, x, config)
+    assert loose == ('scale', 'pinky_distal_m')
+    result = CalibrationResult(HandShape.from_vector(x), HandShape(), (1, 2), np.zeros((2, P)),
+                               {'edges': (2.0, 100)}, {'edges': (1.0, 120)}, std, loose, 40)
+    warnings = [line for line in report(result).splitlines() if line.startswith('warning')]
+    assert len(warnings) == 2 and 'pinky_distal_m (+-3.53 mm' in warnings[1]
