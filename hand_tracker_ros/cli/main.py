@@ -15,8 +15,8 @@ from hand_tracker_ros.cli import (bag_info, calibrate, demo, evaluate, launch, p
                                   train_detector, urdf, warmup)
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (bag_info, calibrate, demo, evaluate, launch, params, play, record, replay_eval, robustness, synth,
-         topics, track, train_detector, urdf, warmup)
+VERBS = (bag_info, calibrate, demo, evaluate, launch, params, play, record, replay_eval,
+         robustness, synth, topics, track, train_detector, urdf, warmup)
 
 
 def build_parser() -> argparse.ArgumentParser:

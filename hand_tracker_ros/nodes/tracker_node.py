@@ -31,10 +31,10 @@ the same one the offline pipeline uses (start, recovery, LOST, confidence; ``ses
 ``initialization``: ``observations`` (default) searches the hand in the first complete set and
 again after ``session.failure.reinit_after`` consecutive LOST frames; ``initial_pose`` starts
 at, and resets to, that pose. The camera intrinsics and extrinsics come from
-``rig_file``, the hand's size from ``shape_file`` (the default hand when empty; HandState's
-``shape_parameters`` and the markers follow it); a camera_info whose size contradicts the
-rig drops that camera's frames with a throttled error; a missing camera_info is only reported (the rig is used). Without a
-``rig_file`` the node refuses to start and says so.
+``rig_file``; a camera_info whose size contradicts the rig drops that camera's frames with
+a throttled error; a missing camera_info is only reported (the rig is used). Without a
+``rig_file`` the node refuses to start and says so. The hand's size comes from ``shape_file``
+(the default hand when empty); HandState's ``shape_parameters`` and the markers follow it.
 """
 from __future__ import annotations
 
