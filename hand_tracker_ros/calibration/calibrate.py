@@ -43,6 +43,7 @@ from hand_tracker_ros.calibration.solver import (SolverConfig, fit_round, normal
                                                  shape_uncertainty)
 from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.errors import ConfigError
+from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import Layout
@@ -50,6 +51,7 @@ from hand_tracker_ros.model.shape import SHAPE_NAMES, HandShape
 from hand_tracker_ros.pipeline.frames import frame_sets, load_rig, rig_file
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag
+from hand_tracker_ros.tracking.energies import TermsConfig
 from hand_tracker_ros.tracking.observations import FrameObservations
 from hand_tracker_ros.tracking.result import TrackResult
 from hand_tracker_ros.tracking.session import FailureConfig, SessionConfig
@@ -135,18 +137,33 @@ def select_frames(thetas: FloatArray, confidence: FloatArray, n: int) -> IntArra
     return np.sort(np.asarray(chosen, dtype=np.int64))
 
 
-def _observe(bag: Path, rig: CameraRig, stamps_ns: Sequence[int], model: HandModel,
-             config: PipelineConfig) -> list[FrameObservations]:
+def _observe(bag: str | Path, rig: CameraRig, stamps_ns: Sequence[int], model: HandModel,
+             config: PipelineConfig) -> tuple[FrameObservations, ...]:
     """Features and detections of the frame sets at ``stamps_ns`` (in that order)."""
     wanted, found = set(stamps_ns), {}
     pipeline = OfflinePipeline(model, rig, config)
     try:
-        for frames in frame_sets(bag, rig):
-            if frames.stamp_ns in wanted:
-                found[frames.stamp_ns] = pipeline.observe(frames)[0]
+        with readable_bag(bag) as readable:
+            for frames in frame_sets(readable, rig):
+                if frames.stamp_ns in wanted:
+                    found[frames.stamp_ns] = pipeline.observe(frames)[0]
     finally:
         pipeline.close()
-    return [found[s] for s in stamps_ns]
+    return tuple(found[s] for s in stamps_ns)
+
+
+@dataclass(frozen=True, eq=False)
+class _Picked:
+    """The observed frames of one pass."""
+
+    cameras: tuple[PinholeCamera, ...]
+    observations: tuple[FrameObservations, ...]
+    terms: TermsConfig
+
+    def at(self, poses: FloatArray, x: FloatArray) -> list[FrameTerms]:
+        """Their image terms, corresponded on the model of shape ``x`` at ``poses`` (N, P)."""
+        model = HandModel.build(HandShape.from_vector(x))
+        return frame_terms(model, self.cameras, self.observations, poses, self.terms)
 
 
 def _rms(frames: Sequence[FrameTerms], thetas: FloatArray, x: FloatArray
@@ -206,7 +223,6 @@ def calibrate_bag(bag: str | Path, *, rig_path: str | Path | None = None,
     rig_path = rig_file(bag, rig_path)
     with readable_bag(bag) as readable:
         rig = load_rig(readable, rig_path)
-    terms = config.pipeline.tracker.terms
     x_bar = initial.to_vector()
     x = x_bar.copy()
     tracked = _track(bag, rig_path, config.pipeline, initial)
@@ -215,26 +231,18 @@ def calibrate_bag(bag: str | Path, *, rig_path: str | Path | None = None,
         if p > 0:
             tracked = _track(bag, rig_path, config.refine_pipeline, HandShape.from_vector(x))
         stamps, thetas, n_candidates = _pick(tracked, config)
-        with readable_bag(bag) as readable:
-            observations = _observe(readable, rig, stamps, HandModel.build(initial),
-                                    config.pipeline)
-
-        def frames_of(poses: FloatArray, shape: FloatArray,
-                      seen: Sequence[FrameObservations] = observations) -> list[FrameTerms]:
-            model = HandModel.build(HandShape.from_vector(shape))
-            return frame_terms(model, rig.cameras, seen, poses, terms)
-
+        picked = _Picked(rig.cameras, _observe(bag, rig, stamps, HandModel.build(initial),
+                                               config.pipeline), config.pipeline.tracker.terms)
         for r in range(config.rounds):
-            frames = frames_of(thetas, x)
+            frames = picked.at(thetas, x)
             thetas, x, _ = fit_round(frames, thetas, x, x_bar, frames[0].model.lower,
                                      frames[0].model.upper, config.solver)
             LOG.info('calibration pass %d round %d: scale %.4f', p + 1, r + 1, x[0])
     before = np.stack([start_poses[s] for s in stamps])
-    initial_rms = _rms(frames_of(before, x_bar), before, x_bar)
-    frames = frames_of(thetas, x)
-    final_rms = _rms(frames, thetas, x)
+    frames = picked.at(thetas, x)
     ne = normal_equations(frames, thetas, x, x_bar, config.solver.prior_weight * len(frames))
     std = shape_uncertainty(ne, x)
-    loose = unconstrained_fields(std, x, config)
-    return CalibrationResult(HandShape.from_vector(x), initial, stamps, thetas, initial_rms,
-                             final_rms, std, loose, n_candidates)
+    return CalibrationResult(HandShape.from_vector(x), initial, stamps, thetas,
+                             _rms(picked.at(before, x_bar), before, x_bar),
+                             _rms(frames, thetas, x), std, unconstrained_fields(std, x, config),
+                             n_candidates)
