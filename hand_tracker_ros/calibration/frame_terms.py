@@ -85,7 +85,7 @@ class FrameTerms:
     def __init__(self, model: HandModel, rig: ShapeRig, terms: Sequence[Term],
                  cameras: Sequence[PinholeCamera], observations: FrameObservations,
                  theta: FloatArray) -> None:
-        self.model, self.rig, self.terms = model, rig, tuple(terms)
+        self.model, self.terms = model, tuple(terms)
         posed = model.pose(theta, jacobian=False)
         views = model_views(posed, model.faces, _mesh_edges(model), tuple(cameras))
         context = RoundContext(posed, views, observations, None)
