@@ -60,6 +60,8 @@ class TrackerNodeConfig:
                                      'a camera of the rig file')
     rig_file: str = param('', 'rig YAML (intrinsics + extrinsics, geometry.rig schema); '
                           'required: without it the node refuses to start')
+    shape_file: str = param('', 'hand shape YAML (model.shape_file schema, written by '
+                            'hand-tracker calibrate); empty: the default hand')
     inputs: str = param('images', "'images': the composed graph, features and salient_points "
                         "run in this process on <cam>/<image_topic>; 'features': the "
                         'distributed graph, subscribe to the topics of features and '

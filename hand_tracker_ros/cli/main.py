@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 from hand_tracker_ros.cli import (
     bag_info,
+    calibrate,
     demo,
     evaluate,
     launch,
@@ -29,8 +30,8 @@ from hand_tracker_ros.cli import (
 )
 from hand_tracker_ros.errors import HandTrackerError
 
-VERBS = (bag_info, demo, evaluate, launch, params, play, record, replay_eval, robustness, synth,
-         topics, track, train_detector, urdf, warmup)
+VERBS = (bag_info, calibrate, demo, evaluate, launch, params, play, record, replay_eval,
+         robustness, synth, topics, track, train_detector, urdf, warmup)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -14,6 +14,7 @@ import numpy as np
 
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.model.shape_file import shape_or_default
 from hand_tracker_ros.pipeline.frames import image_count, rig_file
 from hand_tracker_ros.pipeline.offline import PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag
@@ -31,17 +32,21 @@ def add_parser(sub: Any) -> None:
     parser.add_argument('--init', choices=('auto', 'ground-truth'), default='auto',
                         help='first pose: searched from the images (auto) or the bag\'s ground '
                              'truth (synthetic bags)')
+    parser.add_argument('--shape', metavar='SHAPE.yaml',
+                        help='hand shape file (hand-tracker calibrate; default: the default '
+                             'hand)')
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Track and write; print a summary."""
     rig = CameraRig.from_yaml(rig_file(args.bag, args.rig))
+    model = HandModel.build(shape_or_default(args.shape))
     estimates = track_bag(args.bag, rig_path=args.rig, config=PipelineConfig(),
-                          init_from_ground_truth=args.init == 'ground-truth')
+                          init_from_ground_truth=args.init == 'ground-truth', shape=model.shape)
     frames = write_estimates(progress(estimates, total=image_count(args.bag, rig.names[0]),
                                       desc='track', unit='set'),
-                             args.out, rig.world_frame, HandModel.build())
+                             args.out, rig.world_frame, model)
     tracked = sum(f.result.status == TrackStatus.TRACKING for f in frames)
     ms = 1e3 * np.median([f.result.timings_s['total'] for f in frames]) if frames else 0.0
     print(f'tracked {tracked}/{len(frames)} frame sets ({ms:.0f} ms/frame median); '

@@ -37,8 +37,9 @@ again after ``session.failure.reinit_after`` consecutive LOST frames; ``initial_
 at, and resets to, that pose. The camera intrinsics and extrinsics come from
 ``rig_file``; a camera_info whose size contradicts the rig drops that camera's frames with
 a throttled error; a missing camera_info is only reported (the rig is used; the policy is
-:class:`hand_tracker_ros.sync.input_health.InputHealth`). Without a
-``rig_file`` the node refuses to start and says so.
+:class:`hand_tracker_ros.sync.input_health.InputHealth`). Without a ``rig_file`` the node
+refuses to start and says so. The hand's size comes from ``shape_file`` (the default hand
+when empty); HandState's ``shape_parameters``, the URDF, TF and the markers follow it.
 """
 from __future__ import annotations
 
@@ -67,6 +68,7 @@ from hand_tracker_ros.errors import ConfigError, HandTrackerError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import P
+from hand_tracker_ros.model.shape_file import shape_or_default
 from hand_tracker_ros.node_config import TrackerNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.pipeline.live import LivePipeline
@@ -123,6 +125,7 @@ class TrackerNode(Node):
                        'config/rig_example.yaml)')
                 raise ConfigError(msg)
             rig = _load_rig(self.config)
+            shape = shape_or_default(self.config.shape_file)
         except HandTrackerError as err:
             self.get_logger().fatal(str(err))
             raise
@@ -131,7 +134,7 @@ class TrackerNode(Node):
                                       f'labelled world_frame={self.config.world_frame!r}')
         self.cameras = tuple(rig[c] for c in self.config.cameras)
         self._by_name = {c.name: c for c in self.cameras}
-        self._model = HandModel.build()
+        self._model = HandModel.build(shape)
         initial = (np.asarray(self.config.initial_pose, np.float64)
                    if self.config.initialization == 'initial_pose' else None)
         self._tracker = HandTracker(self._model, self.cameras, self.config.tracking)

@@ -16,6 +16,7 @@ from hand_tracker_ros.bags.recover import readable_bag
 from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.model.shape import HandShape
 from hand_tracker_ros.pipeline.frames import frame_sets, ground_truth, load_rig, rig_file
 from hand_tracker_ros.pipeline.offline import Detector, OfflinePipeline, PipelineConfig
 
@@ -32,8 +33,11 @@ class TrackedFrame:
 
 def track_bag(bag: str | Path, *, rig_path: str | Path | None = None,
               config: PipelineConfig = PipelineConfig(), detector: Detector | None = None,
-              init_from_ground_truth: bool = False) -> Iterator[TrackedFrame]:
+              init_from_ground_truth: bool = False,
+              shape: HandShape | None = None) -> Iterator[TrackedFrame]:
     """Estimates of every synchronized frame set of ``bag``, in order.
+
+    The hand model has ``shape`` (default: the default :class:`HandShape`).
 
     A truncated mcap bag is tracked up to the damage, with a warning
     (:func:`~hand_tracker_ros.bags.recover.readable_bag`); so is one damaged in the middle
@@ -41,15 +45,15 @@ def track_bag(bag: str | Path, *, rig_path: str | Path | None = None,
     """
     rig_path = rig_file(bag, rig_path)
     with readable_bag(bag) as readable:
-        yield from _track_readable(readable, rig_path, config, detector, init_from_ground_truth)
+        yield from _track_readable(readable, rig_path, config, detector, init_from_ground_truth,
+                                   HandModel.build(shape))
 
 
 def _track_readable(bag: Path, rig_path: Path, config: PipelineConfig,
-                    detector: Detector | None, init_from_ground_truth: bool
+                    detector: Detector | None, init_from_ground_truth: bool, model: HandModel
                     ) -> Iterator[TrackedFrame]:
     rig = load_rig(bag, rig_path)
     truth = ground_truth(bag)
-    model = HandModel.build()
     pipeline = OfflinePipeline(model, rig, config, detector)
 
     def initialise(frames: FrameSet) -> None:

@@ -20,7 +20,10 @@ Motions (names accepted by :func:`trajectory`):
 - ``random``: smooth random motion of every joint within 80 % of its limits, plus slow
   global motion, deterministic per seed. Key poses (and the midpoints between consecutive
   ones) whose mesh self-intersects between non-adjacent parts are redrawn, so the ground
-  truth is free of interpenetration.
+  truth is free of interpenetration;
+- ``calibration`` (not in ``MOTIONS``, the benchmark and detector-training set): the short
+  motion the README asks of a user before ``hand-tracker calibrate``, every 3 s: spread the
+  fingers, make a fist, open the hand and turn it one way, then the other.
 """
 from __future__ import annotations
 
@@ -38,6 +41,7 @@ from hand_tracker_ros.model.poses import RELAXED_DEG
 from hand_tracker_ros.model.skeleton import joint_limits
 
 MOTIONS = ('tapping', 'fist', 'pinch', 'grasp', 'wrist', 'random')
+ALL_MOTIONS = (*MOTIONS, 'calibration')
 
 # Wrist placement and base orientation of the handshake pose (see the module docstring).
 BASE_TRANSLATION_M = (0.0, -0.085, 0.0)
@@ -100,15 +104,26 @@ def _wrist(duration_s: float) -> list[Keyframe]:
     return [Keyframe(k * 0.8, *poses[k % len(poses)]) for k in range(n)]
 
 
+def _calibration(duration_s: float) -> list[Keyframe]:
+    straight = _flexed(FINGERS, 0.0, 0.0, 0.0)
+    spread = {**straight, 'index_mcp_abd': 12.0, 'ring_mcp_abd': -10.0,
+              'pinky_mcp_abd': -15.0, 'thumb_cmc_abd': 60.0, 'thumb_cmc_flex': -10.0,
+              'thumb_mcp_flex': 0.0, 'thumb_ip_flex': 0.0}
+    fist = {**_flexed(FINGERS, 75.0, 90.0, 45.0), 'thumb_cmc_flex': 10.0,
+            'thumb_cmc_abd': 30.0, 'thumb_mcp_flex': 20.0, 'thumb_ip_flex': 10.0}
+    poses = [{}, spread, fist, {**straight, 'hand_ry': -40.0, 'hand_rx': 20.0},
+             {**straight, 'hand_ry': -140.0, 'hand_rx': -20.0}]
+    return _cycle(poses, 0.6, duration_s)
+
+
 def _collides(model: HandModel, theta: FloatArray) -> bool:
     vertices = model.pose(theta, jacobian=False).vertices_m
     parts = face_parts(model.faces, model.vertex_part)
     return len(intersecting_pairs(vertices, model.faces, parts, model.adjacent_parts)) > 0
 
 
-def _random(duration_s: float, seed: int) -> list[Keyframe]:
+def _random(duration_s: float, seed: int, model: HandModel) -> list[Keyframe]:
     rng = np.random.default_rng(seed)
-    model = HandModel.build()
     lower, upper = joint_limits()
     mid, half = 0.5 * (lower + upper), 0.4 * (upper - lower)  # 80 % of each range
     times = np.cumsum(np.r_[0.0, rng.uniform(0.4, 0.8, int(duration_s / 0.4) + 2)])
@@ -129,14 +144,19 @@ def _random(duration_s: float, seed: int) -> list[Keyframe]:
     return frames
 
 
-def keyframes(name: str, duration_s: float, seed: int = 0) -> list[Keyframe]:
-    """Keyframes of motion ``name`` covering ``[0, duration_s]``."""
+def keyframes(name: str, duration_s: float, seed: int = 0,
+              model: HandModel | None = None) -> list[Keyframe]:
+    """Keyframes of motion ``name`` covering ``[0, duration_s]``.
+
+    ``model`` (default: the default hand) is the hand whose self-intersections the random
+    motion avoids.
+    """
     builders = {'tapping': _tapping, 'fist': _fist, 'pinch': _pinch, 'grasp': _grasp,
-                'wrist': _wrist}
+                'wrist': _wrist, 'calibration': _calibration}
     if name == 'random':
-        return _random(duration_s, seed)
+        return _random(duration_s, seed, model if model is not None else HandModel.build())
     if name not in builders:
-        msg = f'unknown motion {name!r}; known: {", ".join(MOTIONS)}'
+        msg = f'unknown motion {name!r}; known: {", ".join(ALL_MOTIONS)}'
         raise ConfigError(msg)
     return builders[name](duration_s)
 
@@ -151,8 +171,9 @@ def keyframe_theta(frame: Keyframe) -> FloatArray:
     return np.clip(theta, lower, upper)
 
 
-def trajectory(name: str, n_frames: int, fps: float, *, seed: int = 0) -> FloatArray:
-    """Pose of every frame of motion ``name``.
+def trajectory(name: str, n_frames: int, fps: float, *, seed: int = 0,
+               model: HandModel | None = None) -> FloatArray:
+    """Pose of every frame of motion ``name`` (``model``: see :func:`keyframes`).
 
     Returns
     -------
@@ -162,7 +183,7 @@ def trajectory(name: str, n_frames: int, fps: float, *, seed: int = 0) -> FloatA
     if n_frames < 1 or fps <= 0.0:
         msg = f'need n_frames >= 1 and fps > 0, got {n_frames}, {fps}'
         raise ConfigError(msg)
-    frames = keyframes(name, n_frames / fps, seed)
+    frames = keyframes(name, n_frames / fps, seed, model)
     key_t = np.array([f.time_s for f in frames])
     key_theta = np.stack([keyframe_theta(f) for f in frames])
     t = np.arange(n_frames) / fps

@@ -20,7 +20,7 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.render.background import BackgroundConfig, make_background
 from hand_tracker_ros.render.shading import render_rgb
-from hand_tracker_ros.synthetic.motions import MOTIONS, trajectory
+from hand_tracker_ros.synthetic.motions import ALL_MOTIONS, trajectory
 
 START_STAMP_NS = 1_700_000_000 * 10**9
 _KINDS = ('noise', 'stripes', 'blobs')
@@ -30,7 +30,7 @@ _KINDS = ('noise', 'stripes', 'blobs')
 class SynthConfig:
     """A synthetic sequence."""
 
-    motion: str = param('grasp', 'scripted motion', choices=MOTIONS)
+    motion: str = param('grasp', 'scripted motion', choices=ALL_MOTIONS)
     n_frames: int = param(120, 'number of frames', low=1, high=100000)
     fps: float = param(30.0, 'frame rate', unit='Hz', low=1.0, high=1000.0)
     n_cameras: int = param(4, 'cameras of the ring rig', low=1, high=8)
@@ -66,7 +66,8 @@ class SyntheticSequence:
         self.model = model or HandModel.build()
         self.rig = CameraRig.ring(config.n_cameras, config.width, config.height,
                                   radius_m=config.radius_m, fov_deg=config.fov_deg)
-        self.thetas = trajectory(config.motion, config.n_frames, config.fps, seed=config.seed)
+        self.thetas = trajectory(config.motion, config.n_frames, config.fps, seed=config.seed,
+                                 model=self.model)
 
     def __len__(self) -> int:
         return self.config.n_frames

@@ -1,6 +1,7 @@
 """Write a synthetic sequence as a rosbag2 (mcap by default) plus its rig YAML.
 
-Layout of ``out_dir``: ``bag/`` (the rosbag2) and ``rig.yaml`` beside it. Topics:
+Layout of ``out_dir``: ``bag/`` (the rosbag2), ``rig.yaml`` and ``shape.yaml`` (the hand's
+shape, :mod:`hand_tracker_ros.model.shape_file`) beside it. Topics:
 
 ==================================  ==============================  ==========
 topic                               type                            QoS
@@ -32,6 +33,7 @@ from hand_tracker_ros.bags.writer import BagWriter
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.model.layout import PARAM_NAMES
 from hand_tracker_ros.model.shape import SHAPE_NAMES
+from hand_tracker_ros.model.shape_file import save_shape
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.progress import progress
 from hand_tracker_ros.status import TrackStatus
@@ -76,7 +78,8 @@ def ground_truth_state(sequence: SyntheticSequence, frame: SyntheticFrame,
 
 def write_sequence(sequence: SyntheticSequence, out_dir: str | Path, *,
                    storage: str = 'mcap', image_format: str = 'raw') -> Path:
-    """Render every frame into ``out_dir/bag`` and write ``out_dir/rig.yaml``; return the bag.
+    """Render every frame into ``out_dir/bag``, write ``out_dir/rig.yaml`` and
+    ``out_dir/shape.yaml``; return the bag.
 
     ``image_format`` is ``raw`` (rgb8 ``Image`` on ``/camK/image_raw``) or ``jpeg``/``png``
     (``CompressedImage`` on ``/camK/image_raw/compressed``).
@@ -91,6 +94,8 @@ def write_sequence(sequence: SyntheticSequence, out_dir: str | Path, *,
     out.mkdir(parents=True, exist_ok=True)
     rig = sequence.rig
     rig.to_yaml(out / 'rig.yaml')
+    save_shape(sequence.model.shape, out / 'shape.yaml',
+               comment='the ground-truth hand shape of bag/ (hand-tracker synth)')
     bag = out / 'bag'
     raw = image_format == 'raw'
     topic_of = image_topic if raw else compressed_image_topic

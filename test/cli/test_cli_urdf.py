@@ -36,3 +36,21 @@ def test_urdf_is_printed_with_another_root(capsys) -> None:
     assert main(['urdf', '--root-link', 'cam0_optical_frame']) == 0
     root = ET.fromstring(capsys.readouterr().out)
     assert root.find("joint[@name='hand_tx']/parent").get('link') == 'cam0_optical_frame'
+
+
+def test_urdf_follows_the_shape_file(tmp_path: Path) -> None:
+    from hand_tracker_ros.model.shape import HandShape
+    from hand_tracker_ros.model.shape_file import save_shape
+
+    save_shape(HandShape(scale=1.2), tmp_path / 'big.yaml')
+    assert main(['urdf', '--out', str(tmp_path / 'big.urdf'),
+                 '--shape', str(tmp_path / 'big.yaml')]) == 0
+    big, default = ET.parse(tmp_path / 'big.urdf'), ET.fromstring(COMMITTED.read_text())
+    radius = [float(s.get('radius')) for s in big.iter('sphere')]
+    radius0 = [float(s.get('radius')) for s in default.iter('sphere')]
+    np.testing.assert_allclose(radius, 1.2 * np.asarray(radius0), rtol=1e-4)
+    origin = {j.get('name'): j.find('origin').get('xyz') for j in big.iter('joint')}
+    origin0 = {j.get('name'): j.find('origin').get('xyz') for j in default.iter('joint')}
+    tip = np.fromstring(origin['index_dip_flex'], sep=' ')
+    np.testing.assert_allclose(tip, 1.2 * np.fromstring(origin0['index_dip_flex'], sep=' '),
+                               rtol=1e-4)

@@ -268,3 +268,21 @@ def test_unreadable_rig_file_is_a_clear_startup_error(tmp_path) -> None:
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode != 0
     assert 'cannot read rig file' in proc.stdout + proc.stderr
+
+
+def test_bad_shape_file_is_a_clear_startup_error(tmp_path) -> None:
+    import subprocess
+
+    from hand_tracker_ros.ament import executable
+    from hand_tracker_ros.geometry.rig import CameraRig
+
+    CameraRig.ring(3, 64, 48).to_yaml(tmp_path / 'rig.yaml')
+    (tmp_path / 'shape.yaml').write_text('format: hand_tracker_ros/hand_shape/1\nscale: -1\n')
+    proc = subprocess.run([str(executable('tracker')), '--ros-args',
+                           '-p', 'cameras:=[cam0, cam1, cam2]',
+                           '-p', f'rig_file:={tmp_path / "rig.yaml"}',
+                           '-p', f'shape_file:={tmp_path / "shape.yaml"}'],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode != 0
+    assert 'shape.yaml' in proc.stdout + proc.stderr
+    assert 'finite and > 0: scale' in proc.stdout + proc.stderr

@@ -213,3 +213,20 @@ def test_bag_damaged_inside_is_tracked_up_to_the_damage(synthetic: Path, tmp_pat
         tracked = _tracked_count(broken / 'bag', tmp_path / 'o')
     assert 0 < tracked < 6
     assert 'damaged after the messages read so far' in caplog.text
+
+
+def test_synth_and_track_follow_the_shape_file(tmp_path: Path) -> None:
+    from hand_tracker_ros.model.shape import HandShape
+    from hand_tracker_ros.model.shape_file import load_shape, save_shape
+    from hand_tracker_ros.synthetic.writer import GT_STATE_TOPIC
+
+    shape = HandShape(scale=1.1, index_m=(0.052, 0.029, 0.02))
+    save_shape(shape, tmp_path / 'big.yaml')
+    seq = _synth(tmp_path / 'seq', '--shape', str(tmp_path / 'big.yaml'))
+    assert load_shape(seq / 'shape.yaml') == shape
+    with BagReader(seq / 'bag') as bag:
+        truth = [hand_state_from_msg(m) for *_, m in bag.decoded(topics=[GT_STATE_TOPIC])]
+    np.testing.assert_array_equal(truth[0].shape_parameters, shape.to_vector())
+    error, states = _track(seq / 'bag', tmp_path / 'est', '--shape', str(seq / 'shape.yaml'))
+    assert error < 6.0
+    assert all(np.array_equal(s.shape_parameters, shape.to_vector()) for s in states)

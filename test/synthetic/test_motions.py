@@ -7,10 +7,10 @@ import pytest
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.model.skeleton import joint_limits
-from hand_tracker_ros.synthetic.motions import MOTIONS, trajectory
+from hand_tracker_ros.synthetic.motions import ALL_MOTIONS, MOTIONS, trajectory
 
 
-@pytest.mark.parametrize('name', MOTIONS)
+@pytest.mark.parametrize('name', ALL_MOTIONS)
 def test_motion_is_within_limits_smooth_and_moving(name: str) -> None:
     thetas = trajectory(name, 90, 30.0, seed=3)
     lower, upper = joint_limits()
@@ -30,3 +30,12 @@ def test_random_motion_is_deterministic_per_seed() -> None:
 def test_unknown_motion_is_a_clear_error() -> None:
     with pytest.raises(ConfigError, match="unknown motion 'dance'"):
         trajectory('dance', 10, 30.0)
+
+
+def test_calibration_motion_spreads_makes_a_fist_and_turns() -> None:
+    thetas = np.rad2deg(trajectory('calibration', 90, 30.0))
+    assert 'calibration' not in MOTIONS      # not in the benchmark or detector training set
+    assert thetas[:, Layout.index('index_mcp_abd')].max() > 10.0
+    assert thetas[:, Layout.index('pinky_mcp_abd')].min() < -12.0
+    assert thetas[:, Layout.index('index_pip_flex')].max() > 80.0
+    assert np.ptp(thetas[:, Layout.index('hand_ry')]) > 90.0

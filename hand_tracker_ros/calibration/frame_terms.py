@@ -1,0 +1,160 @@
+r"""One calibration frame: the tracker's image terms as functions of pose *and* shape.
+
+For frame ``k`` with fixed correspondences, the image terms (edges, silhouette, salient
+points; their configs and weights are the tracker's) give residuals of the posed hand.
+Here the hand is posed at ``theta_k`` with the shape ``x`` of
+:mod:`hand_tracker_ros.model.shape_jacobian`,
+``X(theta_k, x) = X_LBS(theta_k; x0) + D(theta_k, x)``, and every term is linearized against
+the stacked parameters ``z_k = [theta_k; x]`` (P + S): the terms only read
+``posed.vertices_m``, the rows ``posed.vertices_jac[ids]`` and ``size(posed.theta)``, so a
+:class:`ShapedPose` whose vertex Jacobian has the ``P + S`` columns
+``[dX_LBS/dtheta + dD/dtheta, dD/dx]`` makes each term's analytic Jacobian the one with
+respect to ``z_k`` by the chain rule (the test checks it against central differences).
+
+Correspondences are found on the model built at ``x0`` (where ``D = 0``), exactly as the
+tracker finds them.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_tracker_ros._typing import FloatArray, IntArray
+from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.energy import Term
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.core.views import model_views
+from hand_tracker_ros.energies.registry import TermsConfig, build_terms
+from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.model.shape_jacobian import S, ShapeRig
+from hand_tracker_ros.render.contours import MeshEdges
+
+# The terms that see the hand's size in the images (the others are priors on the pose).
+IMAGE_TERMS = ('edges', 'silhouette', 'salient')
+
+
+@dataclass(frozen=True, eq=False)
+class ShapedPose:
+    """The hand at one pose and shape, as the energy terms read it.
+
+    Attributes
+    ----------
+    theta : (P + S,) float64
+        ``[theta; x]``.
+    vertices_m : (V, 3) float64
+    vertices_jac : (V, 3, P + S) float64 or None
+    fingertip_vertex_ids : (5,) int64
+    """
+
+    theta: FloatArray
+    vertices_m: FloatArray
+    vertices_jac: FloatArray | None
+    fingertip_vertex_ids: IntArray
+
+    @property
+    def fingertips_m(self) -> FloatArray:
+        """Fingertip vertices (5, 3) float64."""
+        return self.vertices_m[self.fingertip_vertex_ids]
+
+
+def image_terms(model: HandModel, config: TermsConfig = TermsConfig()) -> list[Term]:
+    """The enabled image terms (IMAGE_TERMS) of ``config`` built for ``model``."""
+    return [t for t in build_terms(config, model) if t.name in IMAGE_TERMS]
+
+
+class FrameTerms:
+    """The image terms of one frame with correspondences fixed, over ``z = [theta; x]``.
+
+    Parameters
+    ----------
+    model : HandModel
+        Built at the shape ``x0`` the correspondences are found with.
+    rig : ShapeRig
+        ``ShapeRig.vertices(model)``.
+    terms : sequence of Term
+    cameras : sequence of PinholeCamera
+    observations : FrameObservations
+    theta : (P,) float64
+        Pose at which the correspondences are found.
+    """
+
+    def __init__(self, model: HandModel, rig: ShapeRig, terms: Sequence[Term],
+                 cameras: Sequence[PinholeCamera], observations: FrameObservations,
+                 theta: FloatArray) -> None:
+        self.model, self.terms = model, tuple(terms)
+        posed = model.pose(theta, jacobian=False)
+        views = model_views(posed, model.faces, _mesh_edges(model), tuple(cameras))
+        context = RoundContext(posed, views, observations, None)
+        self.correspondences = tuple(t.energy.correspond(context) for t in self.terms)
+        # The terms read only these rows (the same contract as the tracker's Problem): only
+        # they are displaced and get Jacobian rows.
+        self._ids = np.unique(np.concatenate(
+            [model.fingertip_vertex_ids] + [t.energy.jacobian_vertices(c) for t, c in
+                                            zip(self.terms, self.correspondences)]))
+        self._rig = rig.subset(self._ids)
+
+    def shaped(self, theta: FloatArray, x: FloatArray, *, jacobian: bool) -> ShapedPose:
+        """The hand at ``theta`` (P,) and shape ``x`` (S,); only the rows the terms read are
+        displaced and have Jacobian rows (the others are the model's, with zero rows)."""
+        ids = self._ids
+        posed = self.model.pose(theta, jacobian=jacobian, jacobian_vertices=ids)
+        moved = self._rig.displace(posed._fk, x, jacobian=jacobian)
+        vertices = posed.vertices_m.copy()
+        vertices[ids] += moved.displacement_m
+        jac = None
+        if jacobian:
+            jac = np.zeros((vertices.shape[0], 3, theta.size + S))
+            jac[ids, :, :theta.size] = posed.vertices_jac[ids] + moved.pose_jac
+            jac[ids, :, theta.size:] = moved.shape_jac
+        return ShapedPose(np.concatenate([theta, x]), vertices, jac,
+                          self.model.fingertip_vertex_ids)
+
+    def residuals(self, theta: FloatArray, x: FloatArray, *, jacobian: bool
+                  ) -> tuple[FloatArray, FloatArray | None]:
+        """Stacked ``sqrt(w_i) r_i`` (M,) and, with ``jacobian``, their ``dr/dz`` (M, P + S)."""
+        shaped = self.shaped(theta, x, jacobian=jacobian)
+        rows, jacs = [], []
+        for term, corr in zip(self.terms, self.correspondences):
+            scale = math.sqrt(term.weight)
+            if jacobian:
+                r, J = term.energy.linearize(shaped, corr)
+                jacs.append(scale * J)
+            else:
+                r = term.energy.residuals(shaped, corr)
+            rows.append(scale * r)
+        n = theta.size + S
+        r_all = np.concatenate(rows) if rows else np.zeros(0)
+        if not jacobian:
+            return r_all, None
+        return r_all, np.vstack(jacs) if jacs else np.zeros((0, n))
+
+    def squares(self, theta: FloatArray, x: FloatArray) -> dict[str, tuple[float, int]]:
+        """Per term: ``|r|^2`` (the term's units squared, without its weight) and the row
+        count at ``theta``, ``x``."""
+        shaped = self.shaped(theta, x, jacobian=False)
+        out = {}
+        for t, c in zip(self.terms, self.correspondences):
+            r = t.energy.residuals(shaped, c)
+            out[t.name] = (float(r @ r), int(r.size))
+        return out
+
+
+@functools.lru_cache(maxsize=4)
+def _mesh_edges(model: HandModel) -> MeshEdges:
+    return MeshEdges.from_faces(model.faces)
+
+
+def frame_terms(model: HandModel, cameras: Sequence[PinholeCamera],
+                observations: Sequence[FrameObservations], thetas: FloatArray,
+                config: TermsConfig = TermsConfig()) -> list[FrameTerms]:
+    """One :class:`FrameTerms` per frame; ``thetas`` (N, P) float64."""
+    rig = ShapeRig.vertices(model)
+    terms = image_terms(model, config)
+    return [FrameTerms(model, rig, terms, cameras, obs, theta)
+            for obs, theta in zip(observations, thetas)]
+
