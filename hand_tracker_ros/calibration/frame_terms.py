@@ -33,6 +33,7 @@ from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.shape_jacobian import S, ShapeRig
 from hand_tracker_ros.render.contours import MeshEdges
+from hand_tracker_ros.tracking.problem import weighted_rows
 
 # The terms that see the hand's size in the images (the others are priors on the pose).
 IMAGE_TERMS = ('edges', 'silhouette', 'salient')
@@ -118,20 +119,9 @@ class FrameTerms:
                   ) -> tuple[FloatArray, FloatArray | None]:
         """Stacked ``sqrt(w_i) r_i`` (M,) and, with ``jacobian``, their ``dr/dz`` (M, P + S)."""
         shaped = self.shaped(theta, x, jacobian=jacobian)
-        rows, jacs = [], []
-        for term, corr in zip(self.terms, self.correspondences):
-            scale = math.sqrt(term.weight)
-            if jacobian:
-                r, J = term.energy.linearize(shaped, corr)
-                jacs.append(scale * J)
-            else:
-                r = term.energy.residuals(shaped, corr)
-            rows.append(scale * r)
-        n = theta.size + S
-        r_all = np.concatenate(rows) if rows else np.zeros(0)
-        if not jacobian:
-            return r_all, None
-        return r_all, np.vstack(jacs) if jacs else np.zeros((0, n))
+        scales = [math.sqrt(term.weight) for term in self.terms]
+        return weighted_rows(self.terms, self.correspondences, scales, shaped, jacobian,
+                             theta.size + S)
 
     def squares(self, theta: FloatArray, x: FloatArray) -> dict[str, tuple[float, int]]:
         """Per term: ``|r|^2`` (the term's units squared, without its weight) and the row

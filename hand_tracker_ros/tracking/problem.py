@@ -18,7 +18,7 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.core.energy import Term
-from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.optim.lm import ResidualFunction
 
 
@@ -48,19 +48,8 @@ class Problem:
 
         def fun(theta: FloatArray, jacobian: bool) -> tuple[FloatArray, FloatArray | None]:
             posed = self.model.pose(theta, jacobian=jacobian, jacobian_vertices=needed)
-            rows: list[FloatArray] = []
-            jacs: list[FloatArray] = []
-            for term, corr, scale in zip(self.terms, correspondences, scales):
-                if jacobian:
-                    r, J = term.energy.linearize(posed, corr)
-                    jacs.append(scale * J)
-                else:
-                    r = term.energy.residuals(posed, corr)
-                rows.append(scale * r)
-            r_all = np.concatenate(rows) if rows else np.zeros(0)
-            if not jacobian:
-                return r_all, None
-            return r_all, (np.vstack(jacs) if jacs else np.zeros((0, theta.size)))
+            return weighted_rows(self.terms, correspondences, scales, posed, jacobian,
+                                 theta.size)
 
         return fun
 
@@ -69,3 +58,23 @@ class Problem:
         posed = self.model.pose(theta, jacobian=False)
         return {t.name: 0.5 * t.weight * float(np.sum(t.energy.residuals(posed, c) ** 2))
                 for t, c in zip(self.terms, correspondences)}
+
+
+def weighted_rows(terms: Sequence[Term], correspondences: Sequence[object],
+                  scales: Sequence[float], posed: PosedHand, jacobian: bool, n_params: int
+                  ) -> tuple[FloatArray, FloatArray | None]:
+    """``r = [s_1 r_1; ...]`` (M,) of the terms at ``posed`` with their correspondences and
+    ``s_i = sqrt(w_i)``, and with ``jacobian`` ``J = [s_1 J_1; ...]`` (M, ``n_params``)."""
+    rows: list[FloatArray] = []
+    jacs: list[FloatArray] = []
+    for term, corr, scale in zip(terms, correspondences, scales):
+        if jacobian:
+            r, J = term.energy.linearize(posed, corr)
+            jacs.append(scale * J)
+        else:
+            r = term.energy.residuals(posed, corr)
+        rows.append(scale * r)
+    r_all = np.concatenate(rows) if rows else np.zeros(0)
+    if not jacobian:
+        return r_all, None
+    return r_all, (np.vstack(jacs) if jacs else np.zeros((0, n_params)))
