@@ -129,10 +129,14 @@ class OfflinePipeline:
         ``auto_initialize``, the search for the hand; otherwise it must have been reset to a
         pose (``pipeline.session.reset``).
         """
-        plan = self._next_plan or self._attention.plan(self.session)
-        observed = self.observe(frames, plan)
+        observed = self.observe(frames, self._take_plan())
         self._next_plan = self._attention.plan(self.session)   # as run() plans the next set
         return self._fit(*observed)
+
+    def _take_plan(self) -> ObservationPlan:
+        """The plan of the next set: the one :meth:`step` made before its fit, else now."""
+        plan, self._next_plan = self._next_plan, None
+        return plan if plan is not None else self._attention.plan(self.session)
 
     def run(self, frame_sets: Iterable[FrameSet],
             before_fit: Callable[[FrameSet], None] | None = None) -> Iterator[TrackResult]:
@@ -146,8 +150,7 @@ class OfflinePipeline:
         sets = iter(frame_sets)
 
         def observe_next() -> list[tuple[FrameSet, Future]]:
-            return [(frames, self._observer.submit(self.observe, frames,
-                                                   self._attention.plan(self.session)))
+            return [(frames, self._observer.submit(self.observe, frames, self._take_plan()))
                     for frames in itertools.islice(sets, 1)]
 
         ahead = observe_next()

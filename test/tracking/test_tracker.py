@@ -62,12 +62,14 @@ def test_pipelined_run_gives_the_estimates_of_step_by_step(hand_model, grasp) ->
     config = from_mapping(PipelineConfig, {'edge_noise.enabled': True})
     sets = [FrameSet(f.stamp_ns, f.images) for f in frames]
     thetas, events = {}, []
-    for mode in ('step', 'run'):
+    for mode in ('step', 'run', 'step then run'):
         pipeline = OfflinePipeline(hand_model, sequence.rig, config)
         pipeline.session.reset(frames[0].theta)
         pipeline.observe(sets[0])
         if mode == 'step':
             results = [pipeline.step(s) for s in sets[1:]]
+        elif mode == 'step then run':     # a run continues the step before it
+            results = [pipeline.step(sets[1]), *pipeline.run(sets[2:])]
         else:
             results = []
             for result in pipeline.run(sets[1:], lambda s: events.append(('fit', s.stamp_ns))):
@@ -76,6 +78,7 @@ def test_pipelined_run_gives_the_estimates_of_step_by_step(hand_model, grasp) ->
         pipeline.close()
         thetas[mode] = np.array([r.theta for r in results])
     np.testing.assert_array_equal(thetas['run'], thetas['step'])
+    np.testing.assert_array_equal(thetas['step then run'], thetas['step'])
     assert events == [(kind, f.stamp_ns) for f in frames[1:] for kind in ('fit', 'result')]
 
 
