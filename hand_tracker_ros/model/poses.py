@@ -11,7 +11,12 @@
 """
 from __future__ import annotations
 
-from hand_tracker_ros.model.layout import FINGERS, PARAM_NAMES
+from collections.abc import Mapping
+
+import numpy as np
+
+from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.model.layout import FINGERS, PARAM_NAMES, Layout
 
 # Relaxed, slightly flexed open hand (rad), our choice; inside the joint limits.
 NEUTRAL_RAD: dict[str, float] = {
@@ -36,3 +41,13 @@ CURLED_DEG: dict[str, float] = {
     **{f'{f}_{j}': v for f in FINGERS for j, v in (('mcp_flex', 45.0), ('pip_flex', 55.0),
                                                      ('dip_flex', 30.0))},
 }
+
+
+def with_joints_deg(degrees: Mapping[str, float], theta: FloatArray | None = None
+                    ) -> FloatArray:
+    """A copy of ``theta`` (P,) (zeros by default) with the named joints set to ``degrees``
+    (deg; keys are ``PARAM_NAMES``)."""
+    out = np.zeros(Layout.P) if theta is None else np.array(theta, np.float64)
+    for name, deg in degrees.items():
+        out[Layout.index(name)] = np.deg2rad(deg)
+    return out

@@ -37,7 +37,7 @@ from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import FINGERS, PARAM_NAMES, Layout
-from hand_tracker_ros.model.poses import RELAXED_DEG
+from hand_tracker_ros.model.poses import RELAXED_DEG, with_joints_deg
 from hand_tracker_ros.model.skeleton import joint_limits
 
 MOTIONS = ('tapping', 'fist', 'pinch', 'grasp', 'wrist', 'random')
@@ -163,10 +163,8 @@ def keyframes(name: str, duration_s: float, seed: int = 0,
 
 def keyframe_theta(frame: Keyframe) -> FloatArray:
     """Full pose vector (P,) of one keyframe: base pose, relaxed hand, then the keyframe."""
-    theta = np.zeros(Layout.P)
+    theta = with_joints_deg({**BASE_ROTATION_DEG, **RELAXED_DEG, **frame.joints_deg})
     theta[Layout.translation] = np.add(BASE_TRANSLATION_M, frame.offset_m)
-    for name, deg in {**BASE_ROTATION_DEG, **RELAXED_DEG, **frame.joints_deg}.items():
-        theta[Layout.index(name)] = np.deg2rad(deg)
     lower, upper = joint_limits()
     return np.clip(theta, lower, upper)
 

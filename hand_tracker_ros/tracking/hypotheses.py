@@ -25,7 +25,7 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.geometry.rotations import euler_xzy_from_matrix, rot_x, rot_y, rot_z
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.model.poses import CURLED_DEG, RELAXED_DEG
+from hand_tracker_ros.model.poses import CURLED_DEG, RELAXED_DEG, with_joints_deg
 
 _RY, _RZ, _RX = (Layout.index(n) for n in ('hand_ry', 'hand_rz', 'hand_rx'))
 
@@ -80,7 +80,5 @@ def finger_hypotheses(theta: FloatArray, model: HandModel) -> dict[str, FloatArr
     for name, degrees in FINGER_POSES.items():
         start = np.array(theta, np.float64)
         start[Layout.thumb] = start[Layout.fingers] = 0.0
-        for joint, deg in degrees.items():
-            start[Layout.index(joint)] = np.deg2rad(deg)
-        out[name] = np.clip(start, model.lower, model.upper)
+        out[name] = np.clip(with_joints_deg(degrees, start), model.lower, model.upper)
     return out

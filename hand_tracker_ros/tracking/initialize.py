@@ -28,7 +28,7 @@ from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.model.poses import RELAXED_DEG
+from hand_tracker_ros.model.poses import RELAXED_DEG, with_joints_deg
 from hand_tracker_ros.tracking.evidence import silhouette_iou
 from hand_tracker_ros.tracking.schedule import QUICK, Round
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
@@ -105,9 +105,7 @@ def locate_hand(cameras: Sequence[Camera], masks: Sequence[np.ndarray],
 
 def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArray]:  # noqa: ANN001
     """Relaxed hands over the roll x pitch grid, their mesh centroids at ``center_m``."""
-    relaxed = np.zeros(Layout.P)
-    for name, deg in RELAXED_DEG.items():
-        relaxed[Layout.index(name)] = np.deg2rad(deg)
+    relaxed = with_joints_deg(RELAXED_DEG)
     out = []
     for roll in np.linspace(0.0, 2.0 * np.pi, config.roll_steps, endpoint=False):
         for pitch in np.deg2rad(config.pitches_deg):

@@ -10,10 +10,11 @@ tracked offline and the same bag played through the graph follow the same rules:
    :mod:`.hypotheses`; ``predict``), or from the last estimate.
 3. **Judge.** The fit's image evidence gives a confidence in [0, 1] (:mod:`.evidence`).
 4. **Recover locally** when the confidence is below ``failure.recover_below``: the frame is
-   fitted again, one short round each, from the previous estimate and from the hand turned
+   fitted again, one short round each, from the previous estimate, from the hand turned
    about its own axes (palm flips, quarter turns; of the new fit and of the last estimate the
-   session trusted); the most confident of them gets the full schedule and replaces the fit
-   if it is more confident. This costs time only on doubtful frames.
+   session trusted) and from the new fit's palm with other fingers (relaxed, half closed;
+   :func:`.hypotheses.finger_hypotheses`); the most confident of them gets the full schedule
+   and replaces the fit if it is more confident. This costs time only on doubtful frames.
 5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
    ``failure.lost_below``: the initialisation runs again on the current frame.
 6. **Report.** The frame is TRACKING when the kept fit's confidence is at least
