@@ -10,6 +10,13 @@
 3. When the player exits, give the graph ``drain_s`` to finish, stop every process (SIGINT),
    and score the recorded ``HandState`` messages against the bag's ground truth by stamp with
    the offline metrics (:mod:`.metrics`).
+
+The latency of a set is measured in the recorder, on the wall clock: from its receipt of the
+played ground-truth ``HandState`` of the set (published with the set's images) to its receipt
+of the tracker's ``HandState``. Sim time cannot measure it: it advances only with the
+player's ``/clock``, once per frame, so it rounded every latency down to whole frame periods
+(33 ms at 30 Hz), and ticking ``/clock`` at 200 Hz in between cost the composed tracker
+process three quarters of its estimates (three sim-time nodes handle every tick).
 """
 from __future__ import annotations
 
@@ -39,10 +46,12 @@ from hand_tracker_ros.launcher import (
 )
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
-from hand_tracker_ros.topics import JOINT_STATES, STATE
+from hand_tracker_ros.topics import GT_STATE, JOINT_STATES, STATE
 
 LOG = logging.getLogger(__name__)
 OUTPUT_TOPICS = (JOINT_STATES.absolute, STATE.absolute)
+# The recorder also records the played ground truth: its receive times give the latencies.
+RECORDED_TOPICS = (*OUTPUT_TOPICS, GT_STATE.absolute)
 
 
 @dataclass(frozen=True)
@@ -85,8 +94,9 @@ def graph_specs(bag: Path, rig_path: Path, cameras: list[str], out: Path, rate: 
     args = {'features': (*sim, *cams), 'salient_points': (*sim, *cams),
             'tracker': tuple(tracker_args)}
     nodes = [ProcessSpec(name, name, args[name]) for name in TRACKING_PROCESSES[mode]]
+    # The recorder keeps the wall clock (module docstring: latency).
     nodes.append(ProcessSpec('recorder', 'recorder', (
-        *sim, '-p', f'output:={out}', '-p', f'topics:={ros_list(OUTPUT_TOPICS)}')))
+        '-p', f'output:={out}', '-p', f'topics:={ros_list(RECORDED_TOPICS)}')))
     player = ProcessSpec('player', 'player', (
         '-p', f'bag:={bag}', '-p', f'playback.rate:={rate}', '-p', 'publish_clock:=true',
         *player_waits_for_image_consumers(cameras, mode)))
@@ -143,21 +153,25 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
 def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: CameraRig, *,
                     rate: float = 1.0, skip_first: bool = True) -> ReplayOutcome:
     """Score the ``/hand/state`` messages of the bag ``recorded`` against ``truth`` (by
-    stamp); ``skip_first``: the first set is where the tracker was put (not scored)."""
+    stamp); ``skip_first``: the first set is where the tracker was put (not scored). The
+    latencies pair each estimate with the recorded ground truth of its set (module
+    docstring); sets without one have none."""
     with BagReader(recorded) as reader:
         topics = reader.topics
-        # By header stamp (the input set's), not by the bag's receive time: with sim time
-        # that is the newest /clock the recorder got, 0 before it matched the player's /clock
-        # and one frame late when the tracker needed longer than the player's frame period.
-        # The receive time still gives the latency (sim time runs at ``rate``).
-        states, received = {}, {}
-        for _, _, recv_ns, msg in (reader.decoded(topics=[STATE.absolute])
-                                   if STATE.absolute in topics else ()):
+        # By header stamp (the input set's), never by receive time: an estimate arrives
+        # after its set, one or more frames late when the tracker is slow.
+        states, received, played = {}, {}, {}
+        wanted = [t for t in (STATE.absolute, GT_STATE.absolute) if t in topics]
+        for topic, _, recv_ns, msg in reader.decoded(topics=wanted) if wanted else ():
             state = hand_state_from_msg(msg)
-            states[state.stamp_ns], received[state.stamp_ns] = state, recv_ns
+            if topic == STATE.absolute:
+                states[state.stamp_ns], received[state.stamp_ns] = state, recv_ns
+            else:
+                played.setdefault(state.stamp_ns, recv_ns)
         n_joint_states = (topics[JOINT_STATES.absolute].count
                           if JOINT_STATES.absolute in topics else 0)
-    latencies = np.array([(recv - stamp) / 1e6 / rate for stamp, recv in received.items()])
+    latencies = np.array([(recv - played[stamp]) / 1e6 for stamp, recv in received.items()
+                          if stamp in played])
     # n sets, one period each: the span of their stamps plus one period, at the played rate.
     span_s = (max(truth) - min(truth)) / 1e9 if len(truth) > 1 else 0.0
     duration_s = span_s * len(truth) / max(len(truth) - 1, 1) / rate
@@ -182,9 +196,8 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
 def live_summary(outcome: ReplayOutcome) -> str:
     """One paragraph: sets estimated and tracked, estimates per second, latency."""
     latency = outcome.latencies_ms
-    # The latency is read off sim time, which advances only with the player's /clock: played
-    # slowly it rounds to the gaps between the bag's messages. The tracker's own time from
-    # the complete set to its outputs (HandState.processing_time, wall clock) does not.
+    # The latency spans play to record (module docstring); the tracker's own time from the
+    # complete set to its outputs (HandState.processing_time) is printed beside it.
     processing = [1e3 * s.processing_time_s for s in outcome.states.values()]
     timing = (f'latency (input stamp to recorded estimate) median {np.median(latency):.0f} ms, '
               f'p95 {np.percentile(latency, 95):.0f} ms; in the tracker median '

@@ -9,10 +9,15 @@ the work:
 - the *tracker* fits each observed set in turn and publishes (``track``).
 
 Every observed set is tracked (optical flow and the warm start are relative to the previous
-tracked set, so none may be skipped after observing). The two overlap: as soon as the tracker
-takes an observed set, the observer starts on the newest offered one, so the next fit never
-waits for its observations. The throughput is one set per fit; the latency of a set is its
-wait for the observer, its observation, its wait for the fit in progress, and its own fit.
+tracked set, so none may be skipped after observing). The two overlap, *just in time*: while
+a fit runs, the observer waits until the fit's expected end (the median of the last fits)
+minus the expected observation (the longest of the last ones) and a margin, and only then
+takes the newest offered set, so
+that the next fit starts on a set as fresh as possible and still does not wait for it. The
+throughput is one set per fit; the latency of a set is its wait for the observer, its
+observation, what is left of the fit in progress, and its own fit. Starting the observation
+right after the tracker took a set (the earlier policy) left the observed set waiting for
+most of the fit: on the live 4 x 320x240 graph the median latency was 100 ms.
 
 Why plain threads and not a MultiThreadedExecutor: the one-slot mailboxes state the "newest
 set wins" policy directly, and the executor thread stays free for callbacks and timers
@@ -22,14 +27,21 @@ NumPy and numba code that runs beside the other thread on a second core.
 from __future__ import annotations
 
 import threading
+import time
+from collections import deque
 from collections.abc import Callable
 from typing import Generic, TypeVar
+
+import numpy as np
 
 Item = TypeVar('Item')
 Observed = TypeVar('Observed')
 
 _POLL_S = 0.2         # longest wait of a thread before it checks for a stop
 _PERIOD_EMA = 0.1     # weight of the newest gap in the moving average of the set period
+_RECENT = 9           # fits and observations whose durations predict the next ones
+_MARGIN = 0.2         # the observation starts early by this share of its expected duration
+_MARGIN_MIN_S = 0.002
 
 
 class LatestSet(Generic[Item]):
@@ -47,12 +59,16 @@ class LatestSet(Generic[Item]):
             self._item = (item, received_s)
             self._cond.notify_all()
 
-    def take(self, timeout_s: float) -> tuple[Item, float] | None:
-        """The newest item with its receipt time, or None after ``timeout_s``."""
+    def take(self, timeout_s: float, on_take: Callable[[], None] | None = None
+             ) -> tuple[Item, float] | None:
+        """The newest item with its receipt time, or None after ``timeout_s``.
+        ``on_take`` runs when an item is taken, before a waiter on the empty slot wakes."""
         with self._cond:
             if self._item is None:
                 self._cond.wait(timeout_s)
             item, self._item = self._item, None
+            if item is not None and on_take is not None:
+                on_take()
             self._cond.notify_all()
             return item
 
@@ -83,6 +99,9 @@ class LivePipeline(Generic[Item, Observed]):
         self._observed: LatestSet[tuple[Item, Observed]] = LatestSet()
         self._last_offer_s: float | None = None
         self.period_s: float | None = None   # moving average of the gaps between offers, s
+        self._fit_s: deque[float] = deque(maxlen=_RECENT)        # the last fits' durations, s
+        self._observe_s: deque[float] = deque(maxlen=_RECENT)    # the last observations', s
+        self._fit_since: float | None = None   # monotonic start of the fit in progress
         self._stop = threading.Event()
         self._threads = [threading.Thread(target=self._observer, name='observer', daemon=True),
                          threading.Thread(target=self._tracker, name='tracker', daemon=True)]
@@ -109,28 +128,60 @@ class LivePipeline(Generic[Item, Observed]):
         for thread in self._threads:
             thread.join(timeout_s)
 
+    def observe_at(self) -> float | None:
+        """When (monotonic s) the next observation should start: the fit in progress's
+        expected end less the expected observation and a margin; None when no fit runs or
+        nothing has been measured yet (start at once). The median fit ignores the rare long
+        ones (a search, a recovery), the longest observation covers those with detection."""
+        since = self._fit_since
+        if since is None or not self._fit_s or not self._observe_s:
+            return None
+        observe_s = max(self._observe_s)
+        return (since + float(np.median(self._fit_s)) - observe_s
+                - max(_MARGIN * observe_s, _MARGIN_MIN_S))
+
+    def _wait_for_fit(self) -> None:
+        """Sleep until :meth:`observe_at` (re-read: a fit may end or start meanwhile)."""
+        while not self._stop.is_set():
+            start_at = self.observe_at()
+            wait_s = 0.0 if start_at is None else start_at - time.monotonic()
+            if wait_s <= 0.0:
+                return
+            self._stop.wait(min(wait_s, _POLL_S))
+
+    def _fit_starts(self) -> None:
+        self._fit_since = time.monotonic()
+
     def _observer(self) -> None:
         while not self._stop.is_set():
             if not self._observed.wait_empty(_POLL_S):
                 continue
+            self._wait_for_fit()
             taken = self._inbox.take(_POLL_S)
             if taken is None:
                 continue
             item, received_s = taken
+            start = time.monotonic()
             try:
                 observed = self._observe(item)
             except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set
                 self._on_error(err)
                 continue
+            self._observe_s.append(time.monotonic() - start)
             self._observed.put((item, observed), received_s)
 
     def _tracker(self) -> None:
         while not self._stop.is_set():
-            taken = self._observed.take(_POLL_S)
+            taken = self._observed.take(_POLL_S, on_take=self._fit_starts)
             if taken is None:
                 continue
             (item, observed), received_s = taken
+            start = self._fit_since
+            assert start is not None
             try:
                 self._track(item, observed, received_s)
             except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set
                 self._on_error(err)
+            finally:
+                self._fit_s.append(time.monotonic() - start)
+                self._fit_since = None

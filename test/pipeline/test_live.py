@@ -5,6 +5,8 @@ from __future__ import annotations
 import threading
 import time
 
+import numpy as np
+
 from hand_tracker_ros.pipeline.live import LatestSet, LivePipeline
 
 
@@ -66,3 +68,28 @@ def test_slow_tracker_skips_sets_but_tracks_every_observed_one_in_order() -> Non
     assert tracked == sorted(tracked) and tracked[-1] == 39
     assert live.skipped > 0 and len(tracked) < 40
     assert all(isinstance(e, ValueError) for e in errors)
+
+
+def test_the_next_set_is_observed_just_before_the_fit_in_progress_ends() -> None:
+    """A fit takes six set periods: the set fitted next is taken near the fit's end, not at
+    its start (then it would be about six sets old when its fit starts)."""
+    newest, lags = [-1], []
+
+    def track(k: int, obs: int, received_s: float) -> None:
+        lags.append(newest[0] - k)      # sets offered after k, when k's fit starts
+        time.sleep(0.06)
+
+    def observe(k: int) -> int:
+        time.sleep(0.005)
+        return k
+
+    live = LivePipeline(observe, track, lambda err: None)
+    try:
+        for k in range(150):
+            newest[0] = k
+            live.offer(k, time.monotonic())
+            time.sleep(0.01)
+    finally:
+        live.close()
+    assert len(lags) > 10
+    assert np.median(lags[3:]) <= 2, lags      # the first fits have no durations measured yet
