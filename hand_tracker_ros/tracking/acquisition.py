@@ -1,0 +1,140 @@
+"""Live acquisition: the global search of :mod:`.initialize`, spread over the incoming sets.
+
+The one-shot search fits dozens of hypotheses to one set, seconds on 2 cores. A live tracker
+cannot stop for it: the hand moves on meanwhile, and the pose found is stale by the time the
+next set is taken (played at real time, the tracker found the hand in 7 of 150 sets of the
+realtime demo). Here each set gets a slice of the search, ``step_budget_ms`` of wall time,
+and the best fit so far follows the hand from set to set:
+
+1. On the first set, the hand is located (the visual hull, :func:`.initialize.locate_hand`)
+   and the relaxed-hand hypotheses are ranked by silhouette IoU, as in the one-shot search.
+2. On every set, short fits (:data:`.schedule.QUICK`) are made, in this order, of the best
+   fit carried from the previous set, moved by the displacement of the hull centre since
+   then, and of untried hypotheses, centred on this set's hull centre, until the budget left
+   is what a full fit took last time (at least one untried hypothesis per set, so that a
+   carried fit stuck in a wrong basin does not stop the search).
+3. The most confident short fit gets the full schedule; that is the set's estimate. When its
+   confidence reaches the session's ``lost_below`` the hand is acquired and tracking goes
+   on from it; otherwise the set is LOST, and the more confident of it and the short fit is
+   carried to the next set. Once every hypothesis was tried they are ranked again.
+
+The session runs this when a set must be fitted by a deadline (the live tracker) and the
+search is the way to start (``initialization: observations``); offline it runs the one-shot
+search, which spends what it needs on one set.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros.config import param
+from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.model.layout import Layout
+from hand_tracker_ros.tracking.evidence import silhouette_iou
+from hand_tracker_ros.tracking.initialize import InitConfig, hypotheses, locate_hand
+from hand_tracker_ros.tracking.schedule import QUICK
+from hand_tracker_ros.tracking.tracker import Fit, HandTracker
+
+
+@dataclass(frozen=True)
+class AcquisitionConfig:
+    """The live search's share of each set."""
+
+    step_budget_ms: float = param(120.0, 'wall time of the search per set (short fits and one '
+                                  'full fit)', unit='ms', low=1.0, high=10000.0)
+
+
+@dataclass(frozen=True, eq=False)
+class _Candidate:
+    theta: FloatArray      # (P,) pose (m, rad)
+    centre_m: FloatArray   # (3,) hull centre of the set it was fitted to (m)
+    score: float
+
+
+class Acquisition:
+    """One live search for the hand (module docstring).
+
+    ``score(fit)`` ranks fits (higher is better: the session's confidence). ``start`` (P,),
+    optional, is the first carried candidate (e.g. the last estimate before the hand was
+    lost).
+    """
+
+    def __init__(self, tracker: HandTracker, init: InitConfig, config: AcquisitionConfig,
+                 score: Callable[[Fit, FrameObservations], float],
+                 start: FloatArray | None = None) -> None:
+        self._tracker, self._init, self._config, self._score = tracker, init, config, score
+        self._pending: list[FloatArray] = []   # untried hypotheses, best IoU first
+        self._carried: _Candidate | None = None
+        self._start = None if start is None else np.asarray(start, np.float64).copy()
+        self._full_s = 0.0       # duration of the last full fit, s
+        self.sets = 0            # sets searched so far
+
+    def step(self, observations: FrameObservations) -> tuple[Fit, float]:
+        """Search on one set for about ``step_budget_ms``; the set's full fit and its score.
+
+        Raises ``HandTrackerError`` when the hand cannot be located (fewer than two cameras
+        see foreground).
+        """
+        deadline_s = time.monotonic() + self._config.step_budget_ms / 1e3
+        centre = locate_hand(self._tracker.cameras, [c.features.mask
+                                                      for c in observations.cameras],
+                             self._init.min_mask_px)
+        if self._carried is None and self._start is not None:
+            self._carried = _Candidate(self._start, centre, -np.inf)
+        if not self._pending:
+            self._pending = self._ranked(observations, centre)
+        starts = [] if self._carried is None else [self._moved(self._carried, centre)]
+        best: tuple[float, Fit] | None = None
+        tried = 0       # untried hypotheses fitted on this set
+        while starts or self._pending:
+            if starts:
+                theta = starts.pop()
+            else:
+                theta, tried = self._centred(self._pending.pop(0), centre), tried + 1
+            fit = self._short_fit(theta, observations)
+            score = self._score(fit, observations)
+            if best is None or score > best[0]:
+                best = (score, fit)
+            if tried and time.monotonic() + self._full_s > deadline_s:
+                break
+        assert best is not None
+        t0 = time.monotonic()
+        self._tracker.reset(best[1].theta)
+        full = self._tracker.fit(observations)
+        self._full_s = time.monotonic() - t0
+        full_score = self._score(full, observations)
+        kept = (full_score, full) if full_score >= best[0] else best
+        self._carried = _Candidate(kept[1].theta, centre, kept[0])
+        self.sets += 1
+        return full, full_score
+
+    def _ranked(self, observations: FrameObservations, centre: FloatArray) -> list[FloatArray]:
+        """The relaxed-hand hypotheses at ``centre``, best silhouette IoU first."""
+        tracker = self._tracker
+        scored = [(silhouette_iou(tracker.views(tracker.model.pose(theta, jacobian=False)),
+                                  observations), k, theta)
+                  for k, theta in enumerate(hypotheses(tracker.model, centre, self._init))]
+        scored.sort(key=lambda item: (-item[0], item[1]))
+        return [theta for _, _, theta in scored]
+
+    def _centred(self, theta: FloatArray, centre: FloatArray) -> FloatArray:
+        """``theta`` translated so that its mesh centroid is at ``centre``."""
+        posed = self._tracker.model.pose(theta, jacobian=False)
+        out = theta.copy()
+        out[Layout.translation] += centre - posed.vertices_m.mean(axis=0)
+        return out
+
+    @staticmethod
+    def _moved(candidate: _Candidate, centre: FloatArray) -> FloatArray:
+        """The carried pose, moved as the hull centre moved since its set."""
+        out = candidate.theta.copy()
+        out[Layout.translation] += centre - candidate.centre_m
+        return out
+
+    def _short_fit(self, theta: FloatArray, observations: FrameObservations) -> Fit:
+        self._tracker.reset(theta)
+        return self._tracker.fit(observations, plan=QUICK, separate=False)

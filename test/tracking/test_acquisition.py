@@ -1,0 +1,99 @@
+"""The live search: a slice of the global search per set, LOST until the hand is found."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from hand_tracker_ros.config import from_mapping
+from hand_tracker_ros.core.frames import FrameSet
+from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
+from hand_tracker_ros.status import TrackStatus
+from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
+from hand_tracker_ros.tracking.schedule import QUICK
+
+
+@pytest.fixture(scope='module')
+def observed(hand_model):
+    """A random-motion sequence, its frames and the observations of every frame."""
+    sequence = SyntheticSequence(SynthConfig(motion='random', n_frames=8, seed=3), hand_model)
+    frames = [sequence.frame(k) for k in range(8)]
+    pipeline = OfflinePipeline(hand_model, sequence.rig)
+    observations = [pipeline.observe(FrameSet(f.stamp_ns, f.images))[0] for f in frames]
+    pipeline.close()
+    return sequence, frames, observations
+
+
+def _session(hand_model, sequence, **values):
+    pipeline = OfflinePipeline(hand_model, sequence.rig, from_mapping(PipelineConfig, values),
+                               detector=lambda image: None)
+    pipeline.close()      # only its session is used
+    return pipeline.session
+
+
+def _live_step(session, observations):
+    return session.step(observations, deadline_s=time.monotonic() + 0.033)
+
+
+def _error_mm(result, frame) -> float:
+    return 1e3 * float(np.linalg.norm(result.posed.keypoints_m - frame.keypoints_m,
+                                      axis=1).mean())
+
+
+@pytest.mark.slow
+def test_a_live_session_searches_over_the_sets_then_tracks(hand_model, observed) -> None:
+    sequence, frames, observations = observed
+    # A budget for every hypothesis on the first set; the carried fit refines on the next.
+    session = _session(hand_model, sequence, **{'session.acquisition.step_budget_ms': 5000.0})
+    results = []
+    for obs in observations:
+        results.append(_live_step(session, obs))
+        if not session.acquiring:
+            break
+    found = results[-1]
+    assert all(r.recovered_from == 'search' and 'search' in r.timings_s for r in results)
+    assert all(r.status == TrackStatus.LOST for r in results[:-1])
+    assert found.status == TrackStatus.TRACKING and len(results) < len(observations)
+    # Found means near (a flipped or mislaid hand is 30 mm and more off), then tracked.
+    assert _error_mm(found, frames[len(results) - 1]) < 20.0
+    after = _live_step(session, observations[len(results)])
+    assert after.recovered_from == '' and 'search' not in after.timings_s
+    assert after.status == TrackStatus.TRACKING
+    assert _error_mm(after, frames[len(results)]) < 20.0
+
+
+def test_every_set_of_a_live_search_tries_an_untried_hypothesis(hand_model, observed) -> None:
+    """Even over its budget: the carried fit alone could stay in a wrong basin for ever."""
+    sequence, _, observations = observed
+    session = _session(hand_model, sequence, **{'session.acquisition.step_budget_ms': 1.0,
+                                                'session.failure.lost_below': 1.0})
+    short_fits = []
+    fit = session.tracker.fit
+
+    def counting_fit(*args, **kwargs):
+        short_fits[-1] += kwargs.get('plan') is QUICK
+        return fit(*args, **kwargs)
+
+    session.tracker.fit = counting_fit
+    for obs in observations[:3]:
+        short_fits.append(0)
+        result = _live_step(session, obs)
+        assert result.status == TrackStatus.LOST and session.acquiring   # never confident
+    assert short_fits == [1, 2, 2]     # a new hypothesis, then the carried fit and a new one
+
+
+def test_a_live_session_that_loses_the_hand_searches_from_the_next_set(hand_model,
+                                                                        observed) -> None:
+    sequence, frames, observations = observed
+    session = _session(hand_model, sequence, **{'session.failure.reinit_after': 1,
+                                                'session.acquisition.step_budget_ms': 1.0})
+    wrong = frames[0].theta.copy()
+    wrong[:3] += (0.15, 0.0, 0.1)                 # 18 cm away: no overlap with the hand
+    session.reset(wrong)
+    lost = _live_step(session, observations[1])
+    assert lost.status == TrackStatus.LOST and lost.recovered_from != 'search'
+    assert session.acquiring and session.restarts == 1
+    assert _live_step(session, observations[2]).recovered_from == 'search'
+    session.reset(frames[2].theta)
+    assert not session.acquiring
