@@ -116,8 +116,9 @@ class PlayerNodeConfig:
 
     bag: str = param('', 'bag directory or .mcap file to play; empty: stay idle')
     playback: PlaybackConfig = nested(PlaybackConfig)
-    publish_clock: bool = param(True, 'publish /clock (bag time) before every message, for '
-                                'use_sim_time; the bag\'s own /clock is then not played')
+    publish_clock: bool = param(True, 'publish /clock (bag time) before each message with a '
+                                'new bag time, for use_sim_time; the bag\'s own /clock is then '
+                                'not played')
     start_paused: bool = param(False, 'wait for `false` on ~/pause (std_msgs/Bool) to start')
     wait_for_subscribers_s: float = param(
         5.0, 'before playing, wait up to this long until every topic of `wait_topics` has '

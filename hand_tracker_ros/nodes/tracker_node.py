@@ -28,7 +28,9 @@ are kept as they are. Camera frames go through our approximate-time synchronizer
 :class:`hand_tracker_ros.pipeline.live.LivePipeline`, which observes the newest set on one
 thread and tracks and publishes on another. Skipped sets are counted; the session's
 constant-velocity prediction spans them. ``budget_ms`` (0: the measured period between sets)
-caps each main fit (:meth:`.TrackingSession.step`); played slowly, every set gets every round.
+caps each main fit (:meth:`.TrackingSession.step`; 33 ms for the first set); played slowly,
+every set gets every round. With ``initialization: observations`` the search for the hand is
+spread over the sets (:mod:`hand_tracker_ros.tracking.acquisition`), LOST until found.
 
 Tracking policy: the node drives a :class:`hand_tracker_ros.tracking.session.TrackingSession`,
 the same one the offline pipeline uses (start, recovery, LOST, confidence; ``session.*``).
@@ -96,6 +98,7 @@ from hand_tracker_ros.tracking.tracker import HandTracker
 DESCRIPTION = 'Synchronized multi-camera hand tracking (collision-aware Levenberg-Marquardt).'
 THROTTLE_S = 5.0
 FLUSH_PERIOD_S = 0.01
+FIRST_PERIOD_S = 1.0 / 30.0     # the set period assumed until two sets were offered
 
 
 def _load_rig(config: TrackerNodeConfig) -> CameraRig:
@@ -308,10 +311,12 @@ class TrackerNode(Node):
                received_s: float) -> None:
         restarts = self._session.restarts
         assert self._pipeline is not None
-        budget_s = self.config.budget_ms / 1e3 or self._pipeline.period_s
+        # Every live set has a deadline (it also makes the session search a slice per set);
+        # the first set, before any gap was measured, assumes 30 Hz.
+        budget_s = (self.config.budget_ms / 1e3 or self._pipeline.period_s
+                    or FIRST_PERIOD_S)
         try:
-            result = self._session.step(observations, deadline_s=time.monotonic() + budget_s
-                                        if budget_s else None)
+            result = self._session.step(observations, deadline_s=time.monotonic() + budget_s)
         except HandTrackerError as err:
             self._log_throttled('initialize', 'warning', f'cannot find the hand yet: {err}')
             return

@@ -8,15 +8,22 @@ and the best fit so far follows the hand from set to set:
 
 1. On the first set, the hand is located (the visual hull, :func:`.initialize.locate_hand`)
    and the relaxed-hand hypotheses are ranked by silhouette IoU, as in the one-shot search.
-2. On every set, short fits (:data:`.schedule.QUICK`) are made, in this order, of the best
-   fit carried from the previous set, moved by the displacement of the hull centre since
-   then, and of untried hypotheses, centred on this set's hull centre, until the budget left
-   is what a full fit took last time (at least one untried hypothesis per set, so that a
-   carried fit stuck in a wrong basin does not stop the search).
-3. The most confident short fit gets the full schedule; that is the set's estimate. When its
-   confidence reaches the session's ``lost_below`` the hand is acquired and tracking goes
-   on from it; otherwise the set is LOST, and the more confident of it and the short fit is
-   carried to the next set. Once every hypothesis was tried they are ranked again.
+2. On the first set, the best hypotheses get short fits (:data:`.schedule.QUICK`) until the
+   budget left is what a full fit takes, and the most confident of them gets the full
+   schedule. On every later set the best fit so far, moved by the displacement of the hull
+   centre since its set, gets the full schedule first (while it is near the hand, that is
+   tracking it), and untried hypotheses, centred on this set's hull centre, get short fits
+   with the rest of the budget: at least one per set, so that a carried fit stuck in a wrong
+   basin does not stop the search. Once every hypothesis was tried they are ranked again.
+3. The full fit is the set's estimate. When its confidence reaches the session's
+   ``lost_below`` the hand is acquired and tracking goes on from it; otherwise the set is
+   LOST, and the more confident of the full fit and the best short fit is carried to the
+   next set.
+
+A first version made a short fit of the carried fit too and gave the full schedule to the
+most confident short fit: one short fit more per set, and no better in the simulated live
+loop (``bench/simulate_live.py``, seeds 601-605, whose sets estimated vary by 20-40 points
+from run to run with either).
 
 The session runs this when a set must be fitted by a deadline (the live tracker) and the
 search is the way to start (``initialization: observations``); offline it runs the one-shot
@@ -87,30 +94,46 @@ class Acquisition:
             self._carried = _Candidate(self._start, centre, -np.inf)
         if not self._pending:
             self._pending = self._ranked(observations, centre)
-        starts = [] if self._carried is None else [self._moved(self._carried, centre)]
-        best: tuple[float, Fit] | None = None
-        tried = 0       # untried hypotheses fitted on this set
-        while starts or self._pending:
-            if starts:
-                theta = starts.pop()
-            else:
-                theta, tried = self._centred(self._pending.pop(0), centre), tried + 1
-            fit = self._short_fit(theta, observations)
-            score = self._score(fit, observations)
-            if best is None or score > best[0]:
-                best = (score, fit)
-            if tried and time.monotonic() + self._full_s > deadline_s:
-                break
-        assert best is not None
-        t0 = time.monotonic()
-        self._tracker.reset(best[1].theta)
-        full = self._tracker.fit(observations)
-        self._full_s = time.monotonic() - t0
-        full_score = self._score(full, observations)
-        kept = (full_score, full) if full_score >= best[0] else best
+        if self._carried is None:
+            # Nothing to follow yet: short fits, then the most confident gets the full fit.
+            best = self._explore(observations, centre, deadline_s - self._full_s)
+            full, full_score = self._full_fit(best[1].theta, observations)
+            kept = (full_score, full) if full_score >= best[0] else best
+        else:
+            # Follow the best fit so far, then spend the rest of the budget on new starts.
+            full, full_score = self._full_fit(self._moved(self._carried, centre), observations)
+            best = self._explore(observations, centre, deadline_s)
+            kept = best if best[0] > full_score else (full_score, full)
         self._carried = _Candidate(kept[1].theta, centre, kept[0])
         self.sets += 1
         return full, full_score
+
+    def _explore(self, observations: FrameObservations, centre: FloatArray,
+                 until_s: float) -> tuple[float, Fit]:
+        """Short fits of untried hypotheses, centred at ``centre``, until ``until_s``
+        (``time.monotonic``; at least one); the most confident with its score."""
+        best: tuple[float, Fit] | None = None
+        while self._pending:
+            theta = self._centred(self._pending.pop(0), centre)
+            self._tracker.reset(theta)
+            fit = self._tracker.fit(observations, plan=QUICK, separate=False)
+            score = self._score(fit, observations)
+            if best is None or score > best[0]:
+                best = (score, fit)
+            if time.monotonic() > until_s:
+                break
+        if not self._pending:
+            self._pending = self._ranked(observations, centre)
+        assert best is not None
+        return best
+
+    def _full_fit(self, theta: FloatArray, observations: FrameObservations
+                  ) -> tuple[Fit, float]:
+        t0 = time.monotonic()
+        self._tracker.reset(theta)
+        fit = self._tracker.fit(observations)
+        self._full_s = time.monotonic() - t0
+        return fit, self._score(fit, observations)
 
     def _ranked(self, observations: FrameObservations, centre: FloatArray) -> list[FloatArray]:
         """The relaxed-hand hypotheses at ``centre``, best silhouette IoU first."""
@@ -134,7 +157,3 @@ class Acquisition:
         out = candidate.theta.copy()
         out[Layout.translation] += centre - candidate.centre_m
         return out
-
-    def _short_fit(self, theta: FloatArray, observations: FrameObservations) -> Fit:
-        self._tracker.reset(theta)
-        return self._tracker.fit(observations, plan=QUICK, separate=False)

@@ -64,23 +64,24 @@ def test_a_live_session_searches_over_the_sets_then_tracks(hand_model, observed)
 
 
 def test_every_set_of_a_live_search_tries_an_untried_hypothesis(hand_model, observed) -> None:
-    """Even over its budget: the carried fit alone could stay in a wrong basin for ever."""
+    """Even over its budget: the carried fit alone could stay in a wrong basin for ever. The
+    first set fits the best short fit fully; later sets fit the carried fit fully first."""
     sequence, _, observations = observed
     session = _session(hand_model, sequence, **{'session.acquisition.step_budget_ms': 1.0,
                                                 'session.failure.lost_below': 1.0})
-    short_fits = []
+    fits = []
     fit = session.tracker.fit
 
     def counting_fit(*args, **kwargs):
-        short_fits[-1] += kwargs.get('plan') is QUICK
+        fits[-1].append('short' if kwargs.get('plan') is QUICK else 'full')
         return fit(*args, **kwargs)
 
     session.tracker.fit = counting_fit
     for obs in observations[:3]:
-        short_fits.append(0)
+        fits.append([])
         result = _live_step(session, obs)
         assert result.status == TrackStatus.LOST and session.acquiring   # never confident
-    assert short_fits == [1, 2, 2]     # a new hypothesis, then the carried fit and a new one
+    assert fits == [['short', 'full'], ['full', 'short'], ['full', 'short']]
 
 
 def test_a_live_session_that_loses_the_hand_searches_from_the_next_set(hand_model,
