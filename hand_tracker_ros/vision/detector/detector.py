@@ -20,14 +20,18 @@ Per image (:class:`.model.DetectorModel` runs the network with ONNX Runtime, no 
 3. a peak at cell (i, j) is the detection :math:`(u, v) = 4\,(j + \delta_u, i + \delta_v)`
    with score :math:`p`; at most ``max_detections``, highest score first.
 
-Scale. The network finds hands up to about ``max_hand_px`` (bounding-box side; the training
-scale augmentation of :mod:`.augment` spans renders of about 40-300 px). A hand close to the
-camera can fill the image, so :meth:`FingertipDetector.detect` runs an image pyramid: level
+Scale. The network finds hands up to about ``max_hand_px`` (bounding-box side; the renders
+it is trained on have hands of 68-155 px, 5th-95th percentile, at 320 x 240, and the scale
+augmentation of :mod:`.augment` widens that by an octave). A hand close to the camera can
+fill the image, so :meth:`FingertipDetector.detect` runs an image pyramid: level
 :math:`k` is the image shrunk by :math:`2^k` (area averaging), and levels are added while the
 previous one's short side exceeds ``max_hand_px`` (at most ``max_levels``). At 320 x 240 that
 is the one full-resolution level, as before; at 640 x 480 a second, half-size level (+25 %
-cost). Detections of all levels are mapped back to full-resolution pixels, and one of a
-coarser level within two of its cells of a higher-scoring one is dropped (the same tip).
+cost). 300 px was kept over 150 px on synthetic validation views (seed 1) enlarged 1-3x:
+150 px (two levels already at 320 x 240) lost about 0.1 precision at every size with the
+fine-tuned candidates. Detections of all levels are mapped back to full-resolution pixels,
+and one of a coarser level within two of its cells of a higher-scoring one is dropped (the
+same tip).
 
 Region of interest. With ``roi_px`` (the tracker's box around its estimate,
 :mod:`hand_tracker_ros.tracking.roi`) only that box is searched, shrunk (if needed) so that

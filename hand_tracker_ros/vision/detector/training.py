@@ -5,11 +5,11 @@ Steps, all deterministic in the seed (data order, augmentation and initialisatio
 the seed; PyTorch runs with deterministic algorithms on ``threads`` threads):
 
 1. render ``n_views`` labelled views (:mod:`.data`);
-2. per step, a batch of ``batch_size`` views, each randomly flipped left-right and
-   up-down and cropped to ``crop_height`` x ``crop_width`` px (a multiple of the stride,
-   so the cells stay aligned as on full images): with probability ``hand_crop_fraction``
-   around the mean of the tips plus a uniform shift of up to a third of the crop, else
-   anywhere (background negatives);
+2. per step, a batch of ``batch_size`` views, each augmented (:mod:`.augment`: skin tone,
+   plain background, flips, a crop of ``crop_height`` x ``crop_width`` px at a random scale,
+   lighting and camera effects); the crop is centred, with probability
+   ``hand_crop_fraction``, around the mean of the tips plus a uniform shift of up to a third
+   of the crop, else anywhere (background negatives);
 3. targets at 1/4 resolution (:func:`targets`): with :math:`c_k = \mathrm{round}(t_k / 4)`
    the cell of visible tip :math:`t_k`, the heat map
    :math:`Y = \max_k \exp(-|x - c_k|^2 / 2\sigma^2)` (:math:`\sigma` = ``sigma_cells``), the
