@@ -1,10 +1,10 @@
 r"""Training-time augmentation of the rendered views: skin tone, background, scale, lighting.
 
 The renders (:mod:`.data`) have one skin tone (a light one, +-8 % per channel), textured
-synthetic backgrounds and hands of one size range (about 60-150 px, the bounding-box side, at
-320 x 240). A network trained on them alone found none of five tips on real photos at their
-native scale and none on a darker hand (issue 18). Each training view therefore goes through,
-in order (every draw from the training ``rng``):
+synthetic backgrounds and hands of one size range (68-155 px, 5th-95th percentile of the
+bounding-box side, at 320 x 240). A network trained on them alone found none of five tips on
+real photos at their native scale and none on a darker hand. Each training view therefore
+goes through, in order (every draw from the training ``rng``):
 
 1. skin tone (:func:`recolour_skin`): with probability ``skin_probability`` the hand pixels
    (the render's mask) are multiplied per channel by :math:`g = (d / b)^t`,

@@ -186,6 +186,7 @@ class FingertipDetector:
         ImageFormatError
             ``image_rgb`` is not an (H, W, 3) uint8 array.
         """
+        check_rgb('image_rgb', image_rgb)
         if roi_px is not None:
             return self._detect_in_roi(image_rgb, roi_px)
         cfg = self.config
