@@ -79,9 +79,8 @@ def run(args: argparse.Namespace) -> int:
     """Train and write the model; print where it went."""
     ensure_training_requirements(args.install)
     config = dataclasses.replace(TrainingConfig(), n_views=args.views, epochs=args.epochs,
-                                 threads=getattr(args, 'threads', 1),
-                                 init_model=getattr(args, 'init', ''),
-                                 learning_rate=getattr(args, 'lr', TrainingConfig().learning_rate))
+                                 threads=args.threads, init_model=args.init,
+                                 learning_rate=args.lr)
     validate(config)
     out = Path(args.out) if args.out else default_model_path()
     start = time.monotonic()

@@ -146,7 +146,8 @@ def test_training_is_deterministic(hand_model):
 
 def test_cli_writes_a_loadable_model(tmp_path, capsys):
     out = tmp_path / 'm.onnx'
-    args = argparse.Namespace(seed=1, out=str(out), views=2, epochs=1, install=False)
+    args = argparse.Namespace(seed=1, out=str(out), views=2, epochs=1, install=False, threads=1,
+                              init='', lr=6e-3)
     assert train_detector.run(args) == 0
     assert 'wrote' in capsys.readouterr().out
     DetectorModel.load(out)
@@ -154,6 +155,6 @@ def test_cli_writes_a_loadable_model(tmp_path, capsys):
 
 def test_cli_rejects_bad_options(tmp_path):
     args = argparse.Namespace(seed=1, out=str(tmp_path / 'm.onnx'), views=0, epochs=1,
-                              install=False)
+                              install=False, threads=1, init='', lr=6e-3)
     with pytest.raises(ConfigError, match='n_views'):
         train_detector.run(args)
