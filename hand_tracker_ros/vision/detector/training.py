@@ -65,8 +65,10 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
   0.4 (0.914 / 0.739 at 0.5); scale 0.7-1.4, 15 epochs (24 min): real 7 / 20 (1, 2, 0, 4;
   4 of 5 on the darker hand), bench 0.834 / 0.823 at 0.4 (0.905 / 0.763 at 0.5), tracking
   grasp / pinch / fist (seed 78) 1.25 / 1.02 / 1.90 mm against 1.16 / 1.02 / 1.72, random
-  seeds 77 / 79 1.79 / 4.24 against 1.93 / 4.00. Neither met the bar (precision fell by
-  0.09 on the synthetic views), so neither ships. On the photos the candidates fire at
+  seeds 77 / 79 1.79 / 4.24 against 1.93 / 4.00; 15 more epochs from it (``--init`` it,
+  ``--lr 1e-3``, 15 min): real 7 / 20 (1, 2, 0, 4), bench 0.840 / 0.829 at 0.4
+  (0.919 / 0.769 at 0.5). None met the bar (precision fell by 0.08-0.09 on the synthetic
+  views), so none ships. On the photos the candidates fire at
   fingertips but also at the palm's finger creases and between fingers (the renders have
   no creases, nails or palm lines), and hardly at all on the photo in front of a textured
   ceiling. Next: the 60-epoch training from scratch with the augmentation, and a wider
