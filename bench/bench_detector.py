@@ -5,8 +5,12 @@ lighting and noise drawn from a seed the shipped model (``train-detector --seed 
 saw. A detection is a true positive within 8 px of an unmatched visible tip; detections near
 only invisible tips count as neither (see ``vision/detector/evaluation.py``).
 
-Usage: python bench/bench_detector.py [--views N] [--model PATH] [--sweep]
-(``--sweep`` also prints precision/recall at other ``min_score`` values.)
+Usage: python bench/bench_detector.py [--views N] [--model PATH] [--sweep] [--seed S]
+    [--upscale F] [--max-hand-px PX]
+(``--sweep`` also prints precision/recall at other ``min_score`` values; ``--upscale F``
+enlarges each view F times (bilinear), its tips and the 8 px radius with it: hands F times
+the synthetic size, as close to the camera or at a higher resolution; ``--seed 1`` gives the
+validation views the detector settings were chosen on.)
 """
 from __future__ import annotations
 
@@ -15,11 +19,24 @@ import dataclasses
 import statistics
 import time
 
-from hand_tracker_ros.vision.detector.data import labelled_views
+import cv2
+import numpy as np
+
+from hand_tracker_ros.vision.detector.data import LabelledView, labelled_views
 from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
 from hand_tracker_ros.vision.detector.evaluation import DetectionTally
 
 HELD_OUT_SEED = 20_261_122
+
+
+def upscaled(view: LabelledView, factor: float) -> LabelledView:
+    """``view`` enlarged ``factor`` times (bilinear), tips with it (pixel centres)."""
+    if factor == 1.0:
+        return view
+    image = cv2.resize(view.image, None, fx=factor, fy=factor, interpolation=cv2.INTER_LINEAR)
+    mask = cv2.resize(view.hand_mask.astype(np.uint8), image.shape[1::-1],
+                      interpolation=cv2.INTER_NEAREST) > 0
+    return LabelledView(image, mask, (view.tips_uv + 0.5) * factor - 0.5, view.tips_visible)
 
 
 def main() -> None:
@@ -27,18 +44,25 @@ def main() -> None:
     parser.add_argument('--views', type=int, default=300)
     parser.add_argument('--model', default=None)
     parser.add_argument('--sweep', action='store_true')
+    parser.add_argument('--seed', type=int, default=HELD_OUT_SEED)
+    parser.add_argument('--upscale', type=float, default=1.0)
+    parser.add_argument('--max-hand-px', type=float, default=DetectorConfig().max_hand_px)
     args = parser.parse_args()
-    detector = FingertipDetector.load(args.model, DetectorConfig())
-    views = list(labelled_views(args.views, HELD_OUT_SEED))
+    base = dataclasses.replace(DetectorConfig(), max_hand_px=args.max_hand_px)
+    detector = FingertipDetector.load(args.model, base)
+    views = [upscaled(view, args.upscale) for view in labelled_views(args.views, args.seed)]
+    radius_px = 8.0 * args.upscale
     detector.detect(views[0].image)  # warm-up: ONNX Runtime allocates its buffers
     tally, times = DetectionTally(), []
     for view in views:
         start = time.perf_counter()
         detections = detector.detect(view.image)
         times.append(time.perf_counter() - start)
-        tally.add(detections, view.tips_uv, view.tips_visible, radius_px=8.0)
+        tally.add(detections, view.tips_uv, view.tips_visible, radius_px=radius_px)
     p50, p90 = tally.error_percentiles((50.0, 90.0))
-    print(f'held-out views: {len(views)} (320x240), visible tips: {tally.visible_tips}')
+    height, width = views[0].image.shape[:2]
+    print(f'views of seed {args.seed}: {len(views)} ({width}x{height}), visible tips: '
+          f'{tally.visible_tips}')
     print(f'precision {tally.precision:.3f} (TP {tally.true_positives}, '
           f'FP {tally.false_positives}, near invisible tips {tally.ignored})')
     print(f'recall    {tally.recall:.3f}')
@@ -48,11 +72,12 @@ def main() -> None:
           f'max {max(ms):.2f}')
     if args.sweep:
         for min_score in (0.2, 0.3, 0.4, 0.5, 0.6, 0.7):
-            config = dataclasses.replace(DetectorConfig(), min_score=min_score)
+            config = dataclasses.replace(base, min_score=min_score)
             swept = FingertipDetector(detector.model, config)
             tally = DetectionTally()
             for view in views:
-                tally.add(swept.detect(view.image), view.tips_uv, view.tips_visible)
+                tally.add(swept.detect(view.image), view.tips_uv, view.tips_visible,
+                          radius_px=radius_px)
             print(f'min_score {min_score:.1f}: precision {tally.precision:.3f}, '
                   f'recall {tally.recall:.3f}')
 

@@ -41,6 +41,14 @@ def add_parser(sub: Any) -> None:
                         help=f'rendered training views (default {defaults.n_views})')
     parser.add_argument('--epochs', type=int, default=defaults.epochs,
                         help=f'passes over the views (default {defaults.epochs})')
+    parser.add_argument('--threads', type=int, default=defaults.threads,
+                        help=f'PyTorch threads (default {defaults.threads}; the model bytes '
+                             'may depend on it)')
+    parser.add_argument('--init', default='',
+                        help='start from this .onnx model (fine-tuning; default: random '
+                             'initialisation)')
+    parser.add_argument('--lr', type=float, default=defaults.learning_rate,
+                        help=f'peak learning rate (default {defaults.learning_rate})')
     parser.add_argument('--install', action='store_true',
                         help='first install the training requirements (PyTorch, ONNX) with pip '
                              'if they are missing')
@@ -70,7 +78,9 @@ def ensure_training_requirements(install: bool) -> None:
 def run(args: argparse.Namespace) -> int:
     """Train and write the model; print where it went."""
     ensure_training_requirements(args.install)
-    config = dataclasses.replace(TrainingConfig(), n_views=args.views, epochs=args.epochs)
+    config = dataclasses.replace(TrainingConfig(), n_views=args.views, epochs=args.epochs,
+                                 threads=args.threads, init_model=args.init,
+                                 learning_rate=args.lr)
     validate(config)
     out = Path(args.out) if args.out else default_model_path()
     start = time.monotonic()

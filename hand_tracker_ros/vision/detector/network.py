@@ -84,3 +84,53 @@ class ExportedNetwork(nn.Module):
         x = (image.permute(0, 3, 1, 2).float() - _MEAN) / _SCALE
         y = self.network(x)
         return torch.cat([torch.sigmoid(y[:, :1]), y[:, 1:]], dim=1)
+
+
+def load_onnx_weights(network: ExportedNetwork, model_bytes: bytes) -> None:
+    r"""Start ``network`` from an exported model of the same architecture (fine-tuning).
+
+    The export folds each batch normalisation into the convolution before it
+    (:math:`W' = \gamma W / \sqrt{\sigma^2 + \epsilon}`, :math:`b' = \beta - \gamma \mu /
+    \sqrt{\sigma^2 + \epsilon}`). The folded :math:`W'` goes into the convolution and
+    :math:`b'` into the normalisation's :math:`\beta`, with :math:`\gamma = 1`,
+    :math:`\mu = 0`, :math:`\sigma^2 = 1 - \epsilon`: the network then computes what the
+    model computes as long as its normalisations stay in eval mode (:func:`freeze_batch_norm`).
+
+    Raises
+    ------
+    ValueError
+        The model's convolutions do not match the network's (count or shapes).
+    """
+    import onnx
+    from onnx import numpy_helper
+
+    graph = onnx.load_from_string(model_bytes).graph
+    weights = {i.name: numpy_helper.to_array(i) for i in graph.initializer}
+    folded = [(weights[n.input[1]], weights[n.input[2]]) for n in graph.node
+              if n.op_type == 'Conv']
+    modules = list(network.modules())
+    convs = [m for m in modules if isinstance(m, nn.Conv2d)]
+    if len(folded) != len(convs) or any(w.shape != tuple(c.weight.shape)
+                                        for (w, _), c in zip(folded, convs)):
+        msg = (f'model convolutions {[w.shape for w, _ in folded]} do not match the '
+               f'network {[tuple(c.weight.shape) for c in convs]}')
+        raise ValueError(msg)
+    with torch.no_grad():
+        for (weight, bias), conv in zip(folded, convs):
+            conv.weight.copy_(torch.from_numpy(weight.copy()))
+            index = modules.index(conv)
+            after = modules[index + 1] if index + 1 < len(modules) else None
+            if isinstance(after, nn.BatchNorm2d):
+                after.weight.fill_(1.0)
+                after.bias.copy_(torch.from_numpy(bias.copy()))
+                after.running_mean.zero_()
+                after.running_var.fill_(1.0 - after.eps)
+            else:    # the head keeps its own bias
+                conv.bias.copy_(torch.from_numpy(bias.copy()))
+
+
+def freeze_batch_norm(network: nn.Module) -> None:
+    """Put every batch normalisation in eval mode: fixed statistics, trainable affine."""
+    for module in network.modules():
+        if isinstance(module, nn.BatchNorm2d):
+            module.eval()

@@ -1,0 +1,140 @@
+r"""Training-time augmentation of the rendered views: skin tone, background, scale, lighting.
+
+The renders (:mod:`.data`) have one skin tone (a light one, +-8 % per channel), textured
+synthetic backgrounds and hands of one size range (68-155 px, 5th-95th percentile of the
+bounding-box side, at 320 x 240). A network trained on them alone found none of five tips on
+real photos at their native scale and none on a darker hand. Each training view therefore
+goes through, in order (every draw from the training ``rng``):
+
+1. skin tone (:func:`recolour_skin`): with probability ``skin_probability`` the hand pixels
+   (the render's mask) are multiplied per channel by :math:`g = (d / b)^t`,
+   :math:`t \sim U(0, 1)`, with :math:`b` the renders' base skin albedo and :math:`d`
+   ``dark_skin_rgb``: a geometric walk from the base tone to a dark brown. Shading is albedo
+   times light, so scaling the shaded pixels is the render with another albedo (up to the
+   noise added after shading);
+2. background (:func:`plain_background`): with probability ``plain_background_probability``
+   the non-hand pixels become a plain surface (a random gray-ish colour, a linear gradient
+   and weak noise), which the renders' noise / stripes / blobs backgrounds never are;
+3. flips left-right and up-down (probability 0.5 each);
+4. scale and crop (:func:`scaled_crop`): the crop window of the source is
+   ``crop / s`` px, :math:`\log s \sim U(\log s_0, \log s_1)` (``scale_range``), resampled to
+   the crop size; the window is centred on the tips' mean plus a uniform shift of a third of
+   the window (probability ``hand_crop_fraction``), else anywhere, and moved inside the view
+   where it fits (else centred, the border replicated: a reflected border would show
+   unlabelled mirror hands). Shrinking first low-passes the view (Gaussian,
+   :math:`\sigma = 0.5 \sqrt{1/s^2 - 1}` px) against aliasing;
+5. lighting and camera (:func:`photometric`): contrast, brightness, gamma, per-channel
+   gains (white balance), with probability 0.5 a Gaussian blur and with probability 0.3 a
+   JPEG round trip.
+
+Ranges are ours, chosen on principle rather than on any test image: the scale range is an
+octave (0.7-1.4), the span between two levels of the detector's image pyramid
+(:mod:`.detector`), so a hand of any size larger than the renders' lands inside the trained
+range at some level (the renders' hands are 68-155 px, 5th-95th percentile of the
+bounding-box side at 320 x 240; a first range of 0.5-2 gave lower precision on the
+synthetic validation views); the dark tone is about the darkest of common skin-tone
+palettes; the lighting ranges are those of indoor webcams.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from hand_tracker_ros._typing import BoolArray, FloatArray, UInt8Array
+from hand_tracker_ros.config import param
+
+# The renders' base skin albedo (data._BASE_SKIN).
+BASE_SKIN_RGB = np.array([224.0, 172.0, 145.0])
+
+
+@dataclass(frozen=True)
+class AugmentationConfig:
+    """Augmentation of the training views (module docstring)."""
+
+    scale_range: tuple = param((0.7, 1.4), 'range of the scale factor s of the crops '
+                               '(log-uniform)', low=0.05, high=20.0)
+    skin_probability: float = param(0.7, 'probability of a recoloured skin tone', low=0.0,
+                                    high=1.0)
+    dark_skin_rgb: tuple = param((88.0, 58.0, 42.0), 'darkest skin albedo of the walk from '
+                                 'the base tone', low=0.0, high=255.0)
+    plain_background_probability: float = param(0.2, 'probability of a plain background',
+                                                 low=0.0, high=1.0)
+    photometric: bool = param(True, 'contrast, brightness, gamma, white balance, blur, JPEG')
+
+
+def recolour_skin(image: UInt8Array, mask: BoolArray, gain: FloatArray) -> UInt8Array:
+    """``image`` with the ``mask`` pixels multiplied by ``gain`` (3,) (step 1)."""
+    out = image.copy()
+    out[mask] = np.clip(image[mask] * gain, 0.0, 255.0).astype(np.uint8)
+    return out
+
+
+def skin_gain(rng: np.random.Generator, cfg: AugmentationConfig) -> FloatArray:
+    """Per-channel gain (3,) from the base to a random tone of the walk (step 1)."""
+    ratio = np.asarray(cfg.dark_skin_rgb, dtype=np.float64) / BASE_SKIN_RGB
+    return ratio ** rng.uniform(0.0, 1.0)
+
+
+def plain_background(image: UInt8Array, mask: BoolArray, rng: np.random.Generator
+                     ) -> UInt8Array:
+    """``image`` with the non-``mask`` pixels replaced by a plain surface (step 2)."""
+    height, width = mask.shape
+    colour = rng.uniform(40.0, 235.0) + rng.uniform(-15.0, 15.0, 3)
+    # A linear gradient of up to +-40 gray levels across the view, as under one lamp.
+    slope = rng.uniform(-40.0, 40.0, 2) / np.array([width, height])
+    v, u = np.mgrid[0:height, 0:width]
+    ramp = (u - width / 2.0) * slope[0] + (v - height / 2.0) * slope[1]
+    surface = colour + ramp[..., None] + rng.normal(0.0, rng.uniform(0.0, 4.0), image.shape)
+    surface = np.clip(surface, 0.0, 255.0).astype(np.uint8)
+    return np.where(mask[..., None], image, surface)
+
+
+def scaled_crop(image: UInt8Array, uv_px: FloatArray, scale: float, origin_px: FloatArray,
+                crop_hw: tuple[int, int]) -> tuple[UInt8Array, FloatArray]:
+    """The crop whose pixel (u, v) is the source point ``origin + (u, v) / scale`` (step 4).
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+    uv_px : (5, 2) float64
+        Tips in ``image`` (NaN allowed).
+    scale : float
+        Crop pixels per source pixel.
+    origin_px : (2,) float64
+        Source point (u, v) that lands on crop pixel (0, 0).
+    crop_hw : (int, int)
+
+    Returns
+    -------
+    crop : (crop_h, crop_w, 3) uint8
+    uv_px : (5, 2) float64
+        ``scale * (uv_px - origin_px)``.
+    """
+    if scale < 1.0:
+        sigma = 0.5 * np.sqrt(1.0 / scale ** 2 - 1.0)
+        image = cv2.GaussianBlur(image, (0, 0), sigma)
+    # Pixel centres are integers: crop pixel x samples the source at origin + x / scale.
+    affine = np.array([[scale, 0.0, -scale * origin_px[0]],
+                       [0.0, scale, -scale * origin_px[1]]])
+    crop = cv2.warpAffine(image, affine, (crop_hw[1], crop_hw[0]), flags=cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REPLICATE)
+    return crop, scale * (uv_px - origin_px)
+
+
+def photometric(crop: UInt8Array, rng: np.random.Generator) -> UInt8Array:
+    """Random contrast, brightness, gamma, white balance, blur and JPEG (step 5)."""
+    x = crop.astype(np.float32) / 255.0
+    x = x ** rng.uniform(0.7, 1.4)
+    gain = rng.uniform(0.6, 1.3) * rng.uniform(0.85, 1.15, 3)
+    x = x * gain.astype(np.float32) + np.float32(rng.uniform(-0.1, 0.1))
+    out = np.clip(x * 255.0 + 0.5, 0.0, 255.0).astype(np.uint8)
+    if rng.random() < 0.5:
+        out = cv2.GaussianBlur(out, (0, 0), rng.uniform(0.3, 1.5))
+    if rng.random() < 0.3:
+        ok, jpeg = cv2.imencode('.jpg', out, [cv2.IMWRITE_JPEG_QUALITY,
+                                              int(rng.integers(30, 91))])
+        if ok:
+            out = cv2.imdecode(jpeg, cv2.IMREAD_UNCHANGED)
+    return out

@@ -1,0 +1,112 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from hand_tracker_ros.errors import ConfigError
+from hand_tracker_ros.vision.detections import SalientDetections
+from hand_tracker_ros.vision.detector.data import labelled_views
+from hand_tracker_ros.vision.detector.detector import (
+    DetectorConfig,
+    FingertipDetector,
+    merge_levels,
+    pyramid_levels,
+)
+from hand_tracker_ros.vision.detector.evaluation import DetectionTally
+from hand_tracker_ros.vision.detector.real_photos import load_labelled_photos, score_photo
+
+LABELS = Path(__file__).resolve().parents[1] / 'fixtures' / 'real_hands' / 'tips.yaml'
+TEST_SEED = 987_655
+
+
+@pytest.fixture(scope='module')
+def photos():
+    return load_labelled_photos(LABELS)
+
+
+@pytest.fixture(scope='module')
+def detector():
+    return FingertipDetector.load()
+
+
+def test_labelled_photos_load_with_tips_inside_them(photos):
+    assert [p.name for p in photos] == ['handSrc.jpg', 'handDst.jpg',
+                                        'Back_Projection_Theory0.jpg',
+                                        'Back_Projection_Theory2.jpg']
+    for photo in photos:
+        height, width = photo.image.shape[:2]
+        assert photo.image.dtype == np.uint8 and photo.image.shape[2] == 3
+        assert photo.tips_uv.shape == (5, 2) and photo.tips_visible.all()
+        assert np.all((photo.tips_uv >= 0) & (photo.tips_uv < (width, height)))
+    assert {p.skin for p in photos} == {'light', 'medium', 'dark'}
+
+
+def test_a_bad_labels_file_raises(tmp_path):
+    (tmp_path / 'tips.yaml').write_text('photos:\n  none.jpg: {size: [2, 2], tips_uv_px: [], '
+                                        'visible: []}\n')
+    with pytest.raises(ConfigError, match='none.jpg'):
+        load_labelled_photos(tmp_path / 'tips.yaml')
+
+
+def test_scoring_counts_tips_within_the_radius(photos):
+    photo = photos[0]
+    exact = SalientDetections(photo.tips_uv + (5.0, 0.0), np.linspace(0.9, 0.5, 5))
+    result = score_photo(photo, exact, radius_px=12.0)
+    assert (result.found, result.visible, result.false_positives) == (5, 5, 0)
+    assert result.errors_px == (5.0,) * 5
+    far = SalientDetections(photo.tips_uv[:2] + (13.0, 0.0), np.array([0.9, 0.8]))
+    assert score_photo(photo, far, radius_px=12.0).found == 0
+
+
+def test_evaluation_runs_on_every_photo(photos, detector):
+    for photo in photos:
+        result = score_photo(photo, detector.detect(photo.image))
+        assert 0 <= result.found <= result.visible == 5
+        assert result.found + result.false_positives <= detector.config.max_detections
+
+
+def test_pyramid_adds_octaves_while_the_image_exceeds_the_largest_hand():
+    assert pyramid_levels((240, 320), 300.0, 3) == 1
+    assert pyramid_levels((480, 640), 300.0, 3) == 2
+    assert pyramid_levels((1080, 1920), 300.0, 3) == 3     # 1080 -> 540 -> 270
+    assert pyramid_levels((1080, 1920), 300.0, 2) == 2
+
+
+def test_merging_drops_a_coarser_duplicate_and_keeps_the_rest():
+    fine = (np.array([[100.0, 50.0], [10.0, 10.0]]), np.array([0.6, 0.5]), 4.0)
+    coarse = (np.array([[104.0, 55.0], [300.0, 200.0]]), np.array([0.9, 0.7]), 8.0)
+    merged = merge_levels([fine, coarse], max_detections=5)
+    np.testing.assert_allclose(merged.uv_px, [[104.0, 55.0], [300.0, 200.0], [10.0, 10.0]])
+    np.testing.assert_allclose(merged.score, [0.9, 0.7, 0.5])
+    assert merge_levels([fine, coarse], max_detections=1).score.tolist() == [0.9]
+
+
+def test_half_size_level_maps_back_to_full_resolution_pixels(detector):
+    # Doubled by pixel repetition, area-halved back: level 1 sees exactly the original view.
+    view = next(labelled_views(1, TEST_SEED))
+    single = FingertipDetector(detector.model, DetectorConfig(max_levels=1))
+    small = single.detect(view.image)
+    big = detector.detect(cv2.resize(view.image, None, fx=2, fy=2,
+                                     interpolation=cv2.INTER_NEAREST))
+    assert small.score.size > 0
+    for uv in 2.0 * small.uv_px + 0.5:       # centres: u_big + 0.5 = 2 (u + 0.5)
+        assert np.min(np.linalg.norm(big.uv_px - uv, axis=1)) < 16.0
+
+
+def test_roi_detections_are_in_full_image_pixels(detector):
+    tally = DetectionTally()
+    for view in labelled_views(12, TEST_SEED):
+        rows, cols = np.nonzero(view.hand_mask)
+        if rows.size == 0:
+            continue
+        roi = (cols.min() - 20, rows.min() - 20, cols.max() + 21, rows.max() + 21)
+        tally.add(detector.detect(view.image, roi_px=roi), view.tips_uv, view.tips_visible)
+    assert tally.recall > 0.6 and tally.precision > 0.7
+
+
+def test_roi_outside_the_image_gives_no_detections(detector):
+    image = np.full((240, 320, 3), 128, np.uint8)
+    assert detector.detect(image, roi_px=(400, 300, 500, 400)).score.size == 0
