@@ -6,8 +6,13 @@ import os
 import pytest
 
 # Each pytest session gets its own DDS domain so that concurrent runs on one machine (other
-# developers, CI) never see each other's nodes and topics.
-os.environ.setdefault('ROS_DOMAIN_ID', str(20 + os.getpid() % 180))
+# developers, CI) never see each other's nodes and topics. Under `pytest -n N` (xdist) each
+# worker is a process of its own and picks its own domain: the one it inherits from the
+# controller would make the workers' tests hear each other's topics.
+if 'PYTEST_XDIST_WORKER' in os.environ:
+    os.environ['ROS_DOMAIN_ID'] = str(20 + os.getpid() % 180)
+else:
+    os.environ.setdefault('ROS_DOMAIN_ID', str(20 + os.getpid() % 180))
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 

@@ -7,9 +7,10 @@
    node has subscribed. Real time is ``rate = 1``; on a machine where one frame takes longer
    than a frame period the tracker skips sets (it always takes the newest), so for a
    comparison with the offline path the bag is played slower (no dropped sets).
-3. When the player exits, give the graph ``drain_s`` to finish, stop every process (SIGINT),
-   and score the recorded ``HandState`` messages against the bag's ground truth by stamp with
-   the offline metrics (:mod:`.metrics`).
+3. When the player exits, give the graph ``drain_s`` to finish (less once the estimate of
+   the bag's last set is out: :func:`_drain`), stop every process (SIGINT), and score the
+   recorded ``HandState`` messages against the bag's ground truth by stamp with the offline
+   metrics (:mod:`.metrics`).
 
 The latency of a set is measured in the recorder, on the wall clock: from its receipt of the
 played ground-truth ``HandState`` of the set (published with the set's images) to its receipt
@@ -25,6 +26,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -48,10 +50,15 @@ from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.frames import ground_truth, load_rig
 from hand_tracker_ros.topics import GT_STATE, JOINT_STATES, STATE
 
+if TYPE_CHECKING:
+    from hand_tracker_ros.ros_io.graph import StampWatch
+
 LOG = logging.getLogger(__name__)
 OUTPUT_TOPICS = (JOINT_STATES.absolute, STATE.absolute)
 # The recorder also records the played ground truth: its receive times give the latencies.
 RECORDED_TOPICS = (*OUTPUT_TOPICS, GT_STATE.absolute)
+# After the last set's HandState was heard: time for the recorder to hear it too, s.
+RECORDER_GRACE_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -130,24 +137,37 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
     graph = ProcessGroup(nodes)
     graph.start()
     try:
-        from hand_tracker_ros.ros_io.graph import wait_for_tracking_graph  # rclpy only here
+        # rclpy only here
+        from hand_tracker_ros.ros_io.graph import StampWatch, wait_for_tracking_graph
         wait_for_tracking_graph(rig.names, OUTPUT_TOPICS, timeout_s=startup_s, mode=mode)
-        playback = ProcessGroup([player])
-        playback.start()
-        try:
-            if on_started is not None:
-                on_started()
-            if playback.wait_any(timeout_s) is None:
-                msg = f'player did not finish {bag} within {timeout_s:.0f} s'
-                raise HandTrackerError(msg)
-        finally:
-            playback.stop()
-        time.sleep(drain_s)
+        with StampWatch(STATE.absolute, STATE.msgtype) as estimates:
+            playback = ProcessGroup([player])
+            playback.start()
+            try:
+                if on_started is not None:
+                    on_started()
+                if playback.wait_any(timeout_s) is None:
+                    msg = f'player did not finish {bag} within {timeout_s:.0f} s'
+                    raise HandTrackerError(msg)
+            finally:
+                playback.stop()
+            _drain(estimates, max(truth) if truth else None, drain_s)
     finally:
         codes = graph.stop()
     LOG.info('graph exit codes: %s', codes)
     return score_recording(recorded, truth, rig, rate=rate,
                            skip_first=init_from_ground_truth)
+
+
+def _drain(estimates: StampWatch, last_stamp_ns: int | None, drain_s: float) -> None:
+    """Give the graph ``drain_s`` (s) to finish the sets in flight after the bag ended, or
+    less: once the estimate of the bag's last set (``last_stamp_ns``) was published, the
+    tracker has nothing left (it always takes the newest set), and the recorder gets
+    ``RECORDER_GRACE_S`` to hear it too (it also takes what is queued when it is stopped)."""
+    if last_stamp_ns is not None and estimates.wait_for(last_stamp_ns, drain_s):
+        time.sleep(min(RECORDER_GRACE_S, drain_s))
+    elif last_stamp_ns is None:
+        time.sleep(drain_s)
 
 
 def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: CameraRig, *,

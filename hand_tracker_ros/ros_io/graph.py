@@ -2,14 +2,20 @@
 demo, `hand-tracker launch`, the bag replay and the tests)."""
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable, Iterable
+from types import TracebackType
+from typing import Any
 
 import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from hand_tracker_ros.errors import HandTrackerError
+from hand_tracker_ros.ros_io.message_kit import message_class
 from hand_tracker_ros.ros_io.observations import PARTS
+from hand_tracker_ros.ros_io.raw import keep_last_qos
 
 
 def _poll(wanted: set[str], probe: Callable[[Node], set[str]], timeout_s: float) -> set[str]:
@@ -65,3 +71,65 @@ def wait_for_tracking_graph(cameras: Iterable[str], outputs: Iterable[str], *,
     if missing:
         msg = f'the graph did not subscribe to {sorted(missing)} within {timeout_s:.0f} s'
         raise HandTrackerError(msg)
+
+
+class StampWatch:
+    """The header stamps of the messages on one topic, heard by a background node.
+
+    Used as a context manager: on entry a short-lived node in its own context subscribes to
+    ``topic`` (best effort, so publishers of any reliability match and none waits for this
+    reader) and spins in a daemon thread; on exit it is shut down. A message the watch misses
+    only makes :meth:`wait_for` wait its full timeout.
+
+    Parameters
+    ----------
+    topic : str
+        Absolute topic name, e.g. ``/hand/state``.
+    msgtype : str
+        ROS 2 type of ``topic`` (it must have a ``header``), e.g.
+        ``hand_tracker_msgs/msg/HandState``.
+    """
+
+    def __init__(self, topic: str, msgtype: str) -> None:
+        self._topic, self._msgtype = topic, msgtype
+        self._stamps_ns: set[int] = set()
+        self._heard = threading.Condition()
+        self._context: Any = None
+        self._thread: threading.Thread | None = None
+
+    def __enter__(self) -> StampWatch:
+        self._context = rclpy.Context()
+        rclpy.init(context=self._context)
+        node = Node('hand_tracker_stamp_watch', context=self._context)
+        node.create_subscription(message_class(self._msgtype), self._topic, self._on_message,
+                                 keep_last_qos(100, best_effort=True))
+        executor = SingleThreadedExecutor(context=self._context)
+        executor.add_node(node)
+
+        def spin() -> None:
+            try:
+                executor.spin()
+            except ExternalShutdownException:     # __exit__
+                pass
+
+        self._thread = threading.Thread(target=spin, name='stamp_watch', daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 traceback: TracebackType | None) -> None:
+        rclpy.try_shutdown(context=self._context)
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+
+    def _on_message(self, msg: Any) -> None:
+        stamp = msg.header.stamp
+        with self._heard:
+            self._stamps_ns.add(stamp.sec * 1_000_000_000 + stamp.nanosec)
+            self._heard.notify_all()
+
+    def wait_for(self, stamp_ns: int, timeout_s: float) -> bool:
+        """Block until a message stamped ``stamp_ns`` (ns) was heard, at most ``timeout_s``
+        (s); return whether it was."""
+        with self._heard:
+            return self._heard.wait_for(lambda: stamp_ns in self._stamps_ns, timeout_s)

@@ -12,11 +12,13 @@ from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
+# Enough sets to see each output recorded once per set; every set costs 1.7 s of playback.
+N_FRAMES = 6
 
 
 def test_launch_plays_tracks_records_and_stops_at_the_end_of_the_bag(tmp_path: Path,
                                                                     hand_model) -> None:
-    sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=12, n_cameras=3),
+    sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=N_FRAMES, n_cameras=3),
                                  hand_model)
     bag = write_sequence(sequence, tmp_path / 'synthetic')
     params = tmp_path / 'params.yaml'
@@ -35,7 +37,7 @@ def test_launch_plays_tracks_records_and_stops_at_the_end_of_the_bag(tmp_path: P
     # The player starts once the graph is connected and the graph drains after the bag, so
     # every set is tracked (the bag plays at 0.6 sets/s: a set needs ~0.1 s, but one the
     # session doubts is refitted from its recovery hypotheses, ~1 s on a loaded machine).
-    assert counts.get('/hand/state') == 12, counts
-    assert counts.get('/hand/joint_states') == 12, counts
-    assert counts.get('/tf') == 12 and counts.get('/hand/markers') == 12, counts
+    assert counts.get('/hand/state') == N_FRAMES, counts
+    assert counts.get('/hand/joint_states') == N_FRAMES, counts
+    assert counts.get('/tf') == N_FRAMES and counts.get('/hand/markers') == N_FRAMES, counts
     assert counts.get('/hand/robot_description') == 1, counts      # latched, recorded once

@@ -18,6 +18,7 @@ class NodeProcess:
     def __init__(self, name: str, ros_args: list[str], log: Path) -> None:
         self.log = log
         self._file = log.open('w')
+        self._interrupted = False
         self.proc = subprocess.Popen([str(executable(name)), '--ros-args', *ros_args],
                                      stdout=self._file, stderr=subprocess.STDOUT)
 
@@ -25,10 +26,16 @@ class NodeProcess:
         """Everything the node printed so far."""
         return self.log.read_text()
 
+    def interrupt(self) -> None:
+        """SIGINT, once, without waiting (:meth:`stop` waits)."""
+        if self.proc.poll() is None and not self._interrupted:
+            self.proc.send_signal(signal.SIGINT)
+            self._interrupted = True
+
     def stop(self) -> int:
         """SIGINT and wait; returns the exit code."""
         if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
+            self.interrupt()
             try:
                 self.proc.wait(timeout=20)
             except subprocess.TimeoutExpired:
@@ -47,6 +54,9 @@ def node_process(tmp_path: Path) -> Iterator[Callable[..., NodeProcess]]:
         started.append(node)
         return node
     yield start
+    # Every node shuts down at once, then each is waited for.
+    for node in started:
+        node.interrupt()
     for node in started:
         node.stop()
 
