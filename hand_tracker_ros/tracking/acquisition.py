@@ -59,15 +59,14 @@ class AcquisitionConfig:
 class _Candidate:
     theta: FloatArray      # (P,) pose (m, rad)
     centre_m: FloatArray   # (3,) hull centre of the set it was fitted to (m)
-    score: float
 
 
 class Acquisition:
     """One live search for the hand (module docstring).
 
-    ``score(fit)`` ranks fits (higher is better: the session's confidence). ``start`` (P,),
-    optional, is the first carried candidate (e.g. the last estimate before the hand was
-    lost).
+    ``score(fit, observations)`` ranks fits (higher is better: the session's confidence).
+    ``start`` (P,), optional, is the first carried candidate (e.g. the last estimate before
+    the hand was lost).
     """
 
     def __init__(self, tracker: HandTracker, init: InitConfig, config: AcquisitionConfig,
@@ -78,10 +77,9 @@ class Acquisition:
         self._carried: _Candidate | None = None
         self._start = None if start is None else np.asarray(start, np.float64).copy()
         self._full_s = 0.0       # duration of the last full fit, s
-        self.sets = 0            # sets searched so far
 
-    def step(self, observations: FrameObservations) -> tuple[Fit, float]:
-        """Search on one set for about ``step_budget_ms``; the set's full fit and its score.
+    def step(self, observations: FrameObservations) -> Fit:
+        """Search on one set for about ``step_budget_ms``; the set's full fit.
 
         Raises ``HandTrackerError`` when the hand cannot be located (fewer than two cameras
         see foreground).
@@ -91,7 +89,7 @@ class Acquisition:
                                                       for c in observations.cameras],
                              self._init.min_mask_px)
         if self._carried is None and self._start is not None:
-            self._carried = _Candidate(self._start, centre, -np.inf)
+            self._carried = _Candidate(self._start, centre)
         if not self._pending:
             self._pending = self._ranked(observations, centre)
         if self._carried is None:
@@ -104,9 +102,8 @@ class Acquisition:
             full, full_score = self._full_fit(self._moved(self._carried, centre), observations)
             best = self._explore(observations, centre, deadline_s)
             kept = best if best[0] > full_score else (full_score, full)
-        self._carried = _Candidate(kept[1].theta, centre, kept[0])
-        self.sets += 1
-        return full, full_score
+        self._carried = _Candidate(kept[1].theta, centre)
+        return full
 
     def _explore(self, observations: FrameObservations, centre: FloatArray,
                  until_s: float) -> tuple[float, Fit]:

@@ -208,7 +208,7 @@ class TrackingSession:
         ends), LOST before."""
         assert self._acquisition is not None
         t0 = time.perf_counter()
-        fit, _ = self._acquisition.step(observations)
+        fit = self._acquisition.step(observations)
         timings['search'] = time.perf_counter() - t0
         judged = self._judge('search', fit, observations)
         if judged.confidence >= self.config.failure.lost_below:
