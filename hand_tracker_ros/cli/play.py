@@ -31,7 +31,7 @@ def add_parser(sub: Any) -> None:
     parser.add_argument('-m', '--remap', nargs='+', default=[], metavar='OLD:=NEW',
                         help='publish bag topic OLD on NEW')
     parser.add_argument('--no-clock', action='store_true',
-                        help='do not publish /clock before every message')
+                        help='do not publish /clock (once per bag time, before its messages)')
     parser.add_argument('-p', '--start-paused', action='store_true',
                         help='wait for false on /player/pause before playing')
     parser.add_argument('--wait-for-subscribers', type=float, default=5.0, metavar='S',

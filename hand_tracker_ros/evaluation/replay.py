@@ -3,7 +3,7 @@
 1. Start the tracking graph (``mode`` ``composed``: one ``tracker`` process that also hosts
    ``features`` and ``salient_points``; ``distributed``: the three as processes) on sim time
    with the bag's rig and cameras, and a ``recorder`` of the tracker's outputs.
-2. Play the bag with the ``player`` (``/clock`` before every message) at ``rate``, after every
+2. Play the bag with the ``player`` (``/clock`` once per bag time) at ``rate``, after every
    node has subscribed. Real time is ``rate = 1``; on a machine where one frame takes longer
    than a frame period the tracker skips sets (it always takes the newest), so for a
    comparison with the offline path the bag is played slower (no dropped sets).

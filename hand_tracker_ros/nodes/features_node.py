@@ -30,6 +30,7 @@ from hand_tracker_ros.node_config import FeaturesNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
 from hand_tracker_ros.ros_io.images import ImageInputs, image_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
+from hand_tracker_ros.ros_io.observations import stamp_ns_of
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.features import CameraFeatures, MultiCameraFeatures
 from hand_tracker_ros.vision.visualize import edge_image, flow_image, mask_image, paste_roi
@@ -76,7 +77,7 @@ class FeaturesNode(Node):
     def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
         try:
             rgb = self._inputs.decode(camera, msg)
-            stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            stamp_ns = stamp_ns_of(msg)
             features = self._features.extractors[self._index[camera]].process(rgb, stamp_ns)
         except HandTrackerError as err:
             self.get_logger().error(f'dropping a frame: {err}', throttle_duration_sec=THROTTLE_S)

@@ -14,7 +14,7 @@ from rclpy.node import Node
 
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.ros_io.message_kit import message_class
-from hand_tracker_ros.ros_io.observations import PARTS
+from hand_tracker_ros.ros_io.observations import PARTS, stamp_ns_of
 from hand_tracker_ros.ros_io.raw import keep_last_qos
 
 
@@ -123,9 +123,8 @@ class StampWatch:
             self._thread.join(timeout=5.0)
 
     def _on_message(self, msg: Any) -> None:
-        stamp = msg.header.stamp
         with self._heard:
-            self._stamps_ns.add(stamp.sec * 1_000_000_000 + stamp.nanosec)
+            self._stamps_ns.add(stamp_ns_of(msg))
             self._heard.notify_all()
 
     def wait_for(self, stamp_ns: int, timeout_s: float) -> bool:

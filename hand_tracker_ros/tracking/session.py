@@ -145,8 +145,8 @@ class TrackingSession:
         """
         start = time.perf_counter()
         timings: dict[str, float] = {}
-        if (not self.tracker.initialized and deadline_s is not None and self._initial is None
-                and self._search and self._acquisition is None):
+        if (not self.tracker.initialized and self._searches_live(deadline_s)
+                and self._acquisition is None):
             self._acquisition = self._new_acquisition(None)
         if self._acquisition is not None:
             return self._acquire(observations, timings, start)
@@ -173,7 +173,7 @@ class TrackingSession:
             timings['recovery'] = time.perf_counter() - t0
         searched_now = (judged.confidence < failure.lost_below and self._can_start
                         and self._lost + 1 >= failure.reinit_after)
-        if searched_now and deadline_s is not None and self._initial is None:
+        if searched_now and self._searches_live(deadline_s):
             # Live: the search starts on the next set, from this fit, a slice per set.
             self._acquisition = self._new_acquisition(judged.fit.theta)
             self.restarts += 1
@@ -188,15 +188,25 @@ class TrackingSession:
             timings['search'] = time.perf_counter() - t0
             if searched.confidence > judged.confidence:
                 judged = searched
-        status = self._settle(judged, observations.stamp_ns,
-                              continues=judged.name == 'previous' and not searched_now)
+        return self._report(judged, observations.stamp_ns, iterations, timings, start,
+                            continues=judged.name == 'previous' and not searched_now)
+
+    def _report(self, judged: _Judged, stamp_ns: int, iterations: int,
+                timings: dict[str, float], start: float, continues: bool) -> TrackResult:
+        """Settle the frame's kept fit (:meth:`_settle`) and say what it was."""
+        status = self._settle(judged, stamp_ns, continues)
         timings['total'] = time.perf_counter() - start
         self.status = status
         fit = judged.fit
-        return TrackResult(observations.stamp_ns, status, fit.theta, fit.posed, iterations,
+        return TrackResult(stamp_ns, status, fit.theta, fit.posed, iterations,
                            fit.energy_costs, judged.confidence, judged.evidence, timings,
                            fit.labels, '' if judged.name == 'previous' else judged.name,
                            lm_statuses=fit.lm_statuses)
+
+    def _searches_live(self, deadline_s: float | None) -> bool:
+        """Whether a start is the search spread over the sets: a live frame (with a
+        deadline) of a session that searches rather than resets to ``initial_pose``."""
+        return deadline_s is not None and self._initial is None and self._search
 
     def _new_acquisition(self, start: FloatArray | None) -> Acquisition:
         return Acquisition(self.tracker, self.config.init, self.config.acquisition,
@@ -213,12 +223,8 @@ class TrackingSession:
         judged = self._judge('search', fit, observations)
         if judged.confidence >= self.config.failure.lost_below:
             self._acquisition = None
-        status = self._settle(judged, observations.stamp_ns, continues=False)
-        timings['total'] = time.perf_counter() - start
-        self.status = status
-        return TrackResult(observations.stamp_ns, status, fit.theta, fit.posed, fit.iterations,
-                           fit.energy_costs, judged.confidence, judged.evidence, timings,
-                           fit.labels, 'search', lm_statuses=fit.lm_statuses)
+        return self._report(judged, observations.stamp_ns, fit.iterations, timings, start,
+                            continues=False)
 
     @property
     def _can_start(self) -> bool:
