@@ -28,8 +28,7 @@ from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.roi import RoiConfig, hand_rois
 from hand_tracker_ros.tracking.session import TrackingSession
-
-Box = tuple[int, int, int, int]
+from hand_tracker_ros.vision.image import Box
 
 
 @dataclass(frozen=True)

@@ -14,9 +14,11 @@ from hand_tracker_ros._typing import UInt8Array
 from hand_tracker_ros.checks import check_rgb
 from hand_tracker_ros.errors import ImageFormatError
 
+# A region of interest (u0, v0, u1, v1): the half-open pixel box [u0, u1) x [v0, v1).
+Box = tuple[int, int, int, int]
 
-def clip_roi(name: str, roi_px: Sequence[int] | None, width: int, height: int
-             ) -> tuple[int, int, int, int]:
+
+def clip_roi(name: str, roi_px: Sequence[int] | None, width: int, height: int) -> Box:
     """Clip a region of interest to the image.
 
     Parameters

@@ -53,10 +53,9 @@ from hand_tracker_ros.checks import check_rgb
 from hand_tracker_ros.config import param
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.model import STRIDE, DetectorModel
+from hand_tracker_ros.vision.image import Box
 
 _NMS_KERNEL = np.ones((3, 3), np.uint8)
-# A region of interest (u0, v0, u1, v1), half-open, px.
-Box = tuple[int, int, int, int]
 
 
 @dataclass(frozen=True)
