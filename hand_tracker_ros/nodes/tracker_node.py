@@ -175,6 +175,7 @@ class TrackerNode(Node):
         self._period = self._new_period()
         self._status: TrackStatus | None = None
         self._reinits = 0
+        self._estimated = 0     # sets tracked and published since the start
         self._logged: dict[str, float] = {}
 
     def _create_outputs(self) -> None:
@@ -333,6 +334,7 @@ class TrackerNode(Node):
                                 'in a row)')
         with self._lock:
             self._period['processed'] += 1
+            self._estimated += 1
             self._period['latencies_s'].append(latency_s)
             self._period['processing_s'].append(processing_s)
             self._period['iterations'].append(result.iterations)
@@ -360,7 +362,16 @@ class TrackerNode(Node):
         """Stop the pipeline threads, then the node."""
         if self._pipeline is not None:
             self._pipeline.close()
+            self.get_logger().info(self._input_summary())
         super().destroy_node()
+
+    def _input_summary(self) -> str:
+        """Where the input sets went, for the log at shutdown: each camera's frames, the sets
+        synchronized, those a newer set replaced before the tracker took them (the tracker
+        was busy: :mod:`hand_tracker_ros.pipeline.live`) and those estimated."""
+        assert self._pipeline is not None
+        return (f'input: {self._sync.stats.summary()}, {self._pipeline.skipped} replaced by '
+                f'a newer one before the tracker was free, {self._estimated} estimated')
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -107,6 +107,12 @@ class SyncStats:
     unmatched_sets: int
     resets: int
 
+    def summary(self) -> str:
+        """One line: each input's messages, how many are in no set, the sets emitted."""
+        received = ', '.join(f'{name} {s.received}' for name, s in self.inputs.items())
+        dropped = sum(s.dropped for s in self.inputs.values())
+        return f'frames {received} ({dropped} in no set); {self.emitted} sets synchronized'
+
 
 def _nearest(stamps: list[int], pivot: int) -> int:
     """The stamp of sorted, non-empty ``stamps`` closest to ``pivot`` (earlier on a tie)."""

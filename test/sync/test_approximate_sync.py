@@ -77,6 +77,8 @@ def test_one_dropped_frame_skips_that_set_and_counts_it():
     assert {c: s.unmatched for c, s in stats.inputs.items()} == {
         'cam0': 1, 'cam1': 1, 'cam2': 0, 'cam3': 1}
     assert stats.inputs['cam2'].received == 7
+    assert stats.summary() == ('frames cam0 8, cam1 8, cam2 7, cam3 8 (3 in no set); '
+                               '7 sets synchronized')
 
 
 def test_late_camera_in_order_per_input_still_gives_every_set():
