@@ -4,10 +4,12 @@
 nodes here, spun by one executor, like an rclcpp component container: each keeps its name,
 parameters and output topics, but the image sets travel in memory. The tracker synchronizes
 the raw images; for each set it tracks, :class:`InProcessObserver` decodes the images once
-(:mod:`hand_tracker_ros.bags.image_codec`, the one decoder), asks the features node for
-edges, mask and flow and the salient_points node for fingertips, and builds the tracker's
-observations, without serializing anything. Features and detections are computed only for
-the sets that are tracked, so optical flow always spans the tracker's own step.
+(:mod:`hand_tracker_ros.bags.image_codec`, the one decoder), scales them to the working
+resolution (the tracker's ``working_width_px``, :mod:`hand_tracker_ros.vision.resolution`),
+asks the features node for edges, mask and flow and the salient_points node for fingertips,
+and builds the tracker's observations, without serializing anything. Features and
+detections are computed only for the sets that are tracked, so optical flow always spans the
+tracker's own step.
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from hand_tracker_ros.nodes.tracker_node import TrackerNode
 from hand_tracker_ros.sync.approximate import SyncedSet
 from hand_tracker_ros.tracking.attention import Attention
 from hand_tracker_ros.vision.detections import SalientDetections
+from hand_tracker_ros.vision.resolution import to_working
 
 
 class InProcessObserver:
@@ -39,13 +42,14 @@ class InProcessObserver:
     def __init__(self, tracker: TrackerNode, features: FeaturesNode,
                  salient: SalientPointsNode) -> None:
         self._tracker, self._features, self._salient = tracker, features, salient
-        self._attention = Attention(tracker.config.attention, tracker.cameras)
+        self._attention = Attention(tracker.config.attention, tracker.working_cameras)
 
     def __call__(self, synced: SyncedSet) -> FrameObservations:
-        cameras = self._tracker.cameras
+        cameras = self._tracker.working_cameras
         msgs = [synced.items[c.name] for c in cameras]
-        images = [image_from_msg(m, source=c.name, expected_size_px=(c.width, c.height))
-                  for c, m in zip(cameras, msgs)]
+        images = [to_working(image_from_msg(m, source=c.name,
+                                            expected_size_px=(c.width, c.height)), w)
+                  for c, w, m in zip(self._tracker.cameras, cameras, msgs)]
         headers = [m.header for m in msgs]
         plan = self._attention.plan(self._tracker.session)
         features = self._features.process_set(images, headers, plan.rois_px)

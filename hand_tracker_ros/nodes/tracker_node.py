@@ -94,6 +94,7 @@ from hand_tracker_ros.sync.input_health import InputHealth
 from hand_tracker_ros.tracking.overlay import observation_overlays
 from hand_tracker_ros.tracking.session import TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker
+from hand_tracker_ros.vision.resolution import working_camera
 
 DESCRIPTION = 'Synchronized multi-camera hand tracking (collision-aware Levenberg-Marquardt).'
 THROTTLE_S = 5.0
@@ -136,11 +137,15 @@ class TrackerNode(Node):
             self.get_logger().warning(f'rig extrinsics are in {rig.world_frame!r}; outputs are '
                                       f'labelled world_frame={self.config.world_frame!r}')
         self.cameras = tuple(rig[c] for c in self.config.cameras)
+        # What the tracker fits: the composed graph observes at the working resolution;
+        # feature frames come at their own size.
+        width = self.config.working_width_px if self.config.inputs == 'images' else 0
+        self.working_cameras = tuple(working_camera(c, width) for c in self.cameras)
         self._by_name = {c.name: c for c in self.cameras}
         self._model = HandModel.build(shape)
         initial = (np.asarray(self.config.initial_pose, np.float64)
                    if self.config.initialization == 'initial_pose' else None)
-        self._tracker = HandTracker(self._model, self.cameras, self.config.tracking)
+        self._tracker = HandTracker(self._model, self.working_cameras, self.config.tracking)
         self._session = TrackingSession(self._tracker, self.config.session,
                                         initial_pose=initial)
         self._init_state()

@@ -40,6 +40,7 @@ from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
 from hand_tracker_ros.vision.edges import edge_map_from
 from hand_tracker_ros.vision.features import CameraFeatures, FeaturesConfig, MultiCameraFeatures
+from hand_tracker_ros.vision.resolution import to_working, working_camera
 
 Detector = Callable[[UInt8Array], SalientDetections]
 
@@ -59,6 +60,9 @@ class PipelineConfig:
                                   'and after session.failure.reinit_after lost frames')
     edge_noise: EdgeNoiseConfig = nested(EdgeNoiseConfig)
     edge_noise_seed: int = param(0, 'seed of the structured edge noise', low=0)
+    working_width_px: int = param(0, 'observe and fit wider images scaled down to this width '
+                                  '(vision/resolution.py); 0: at their own size', unit='px',
+                                  low=0, high=100000)
 
 
 class OfflinePipeline:
@@ -74,10 +78,12 @@ class OfflinePipeline:
                  detector: Detector | None = None) -> None:
         self.rig = rig
         self.config = config
-        self.tracker = HandTracker(model, rig.cameras, config.tracker)
+        # The cameras as the tracker sees them (vision/resolution.py).
+        self.cameras = tuple(working_camera(c, config.working_width_px) for c in rig.cameras)
+        self.tracker = HandTracker(model, self.cameras, config.tracker)
         self.session = TrackingSession(self.tracker, config.session,
                                        search=config.auto_initialize)
-        self._attention = Attention(config.attention, rig.cameras)
+        self._attention = Attention(config.attention, self.cameras)
         self._next_plan: ObservationPlan | None = None
         self._features = MultiCameraFeatures(rig.names, config.features)
         if detector is None and config.use_detector:
@@ -108,16 +114,17 @@ class OfflinePipeline:
         (default: everything) limits them."""
         plan = ObservationPlan.everything() if plan is None else plan
         start = time.perf_counter()
-        features = self._features.process(frames.images, frames.stamp_ns, rois_px=plan.rois_px)
+        images = [to_working(image, cam) for image, cam in zip(frames.images, self.cameras)]
+        features = self._features.process(images, frames.stamp_ns, rois_px=plan.rois_px)
         if self.config.edge_noise.enabled:
             features = tuple(self._noisy(f, c) for c, f in enumerate(features))
         mid = time.perf_counter()
-        tips = (list(self._detection_pool.map(self._detector, frames.images))
+        tips = (list(self._detection_pool.map(self._detector, images))
                 if self._detector and plan.detect
-                else [SalientDetections.empty()] * len(frames.images))
+                else [SalientDetections.empty()] * len(images))
         end = time.perf_counter()
         cameras = tuple(CameraObservation(cam, feat, tip)
-                        for cam, feat, tip in zip(self.rig.cameras, features, tips))
+                        for cam, feat, tip in zip(self.cameras, features, tips))
         self._frame += 1
         return FrameObservations(frames.stamp_ns, cameras), {'features': mid - start,
                                                              'detection': end - mid}

@@ -1,0 +1,35 @@
+"""The tracking resolution: images wider than a working width are scaled down with their camera.
+
+The tracker's cost grows with the pixels it observes (features, detection, the model's
+rendering and silhouette), and a hand that covers 200 px of a 640 px image is tracked
+nearly as well from 320 px. Each image wider than ``width_px`` is resized to ``width_px``
+(``cv2.INTER_AREA``, the height by the same factor, rounded) before the features and the
+detector see it, and the camera the tracker fits with is :meth:`Camera.scaled` to that size
+(the intrinsics follow; pose and distortion stay). Estimates stay in metres.
+"""
+from __future__ import annotations
+
+import cv2
+
+from hand_tracker_ros._typing import UInt8Array
+from hand_tracker_ros.errors import ShapeError
+from hand_tracker_ros.geometry.camera_model import Camera
+
+
+def working_camera(camera: Camera, width_px: int) -> Camera:
+    """``camera`` scaled to ``width_px`` wide if it is wider; else itself (also for 0)."""
+    if width_px <= 0 or camera.width <= width_px:
+        return camera
+    return camera.scaled(width_px, max(1, round(camera.height * width_px / camera.width)))
+
+
+def to_working(image: UInt8Array, camera: Camera) -> UInt8Array:
+    """``image`` (H, W[, C]) uint8 at ``camera``'s size: as it is, or resized down."""
+    height, width = image.shape[:2]
+    if (width, height) == (camera.width, camera.height):
+        return image
+    if width < camera.width or height < camera.height:
+        msg = (f'{camera.name}: a {width}x{height} image cannot be scaled down to the '
+               f'working {camera.width}x{camera.height}')
+        raise ShapeError(msg)
+    return cv2.resize(image, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
