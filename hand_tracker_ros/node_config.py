@@ -32,6 +32,9 @@ class FeaturesNodeConfig:
                                  "'compressed': sensor_msgs/CompressedImage (jpeg, png) on "
                                  '<cam>/<image_topic>/compressed', choices=IMAGE_TRANSPORTS)
     queue_depth: int = param(2, 'subscription queue depth per camera', low=1, high=100)
+    sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set; whole sets '
+                                'are served, the newest first', unit='ms', low=0.1,
+                                high=1000.0)
     features: FeaturesConfig = nested(FeaturesConfig)
 
 
@@ -45,6 +48,9 @@ class SalientPointsNodeConfig:
                                  "'compressed': sensor_msgs/CompressedImage (jpeg, png) on "
                                  '<cam>/<image_topic>/compressed', choices=IMAGE_TRANSPORTS)
     queue_depth: int = param(2, 'subscription queue depth per camera', low=1, high=100)
+    sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set; whole sets '
+                                'are served, the newest first', unit='ms', low=0.1,
+                                high=1000.0)
     detector: DetectorConfig = nested(DetectorConfig)
 
 

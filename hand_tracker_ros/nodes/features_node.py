@@ -7,7 +7,11 @@ Standalone (the distributed graph) it subscribes, for every camera ``<cam>`` of 
 (mono8, 255 on edges), ``<cam>/edge_orientation`` (32FC1, edge-normal direction in rad, what
 the tracker's orientation check needs), ``<cam>/mask`` (mono8, 255 on the hand) and
 ``<cam>/flow`` (32FC2, px from the previous frame; not published on a camera's first frame).
-A bad image gets one throttled error and is dropped; the node keeps running.
+It serves whole sets: the cameras' images are grouped by stamp (``sync_slop_ms``) and the
+newest complete set is processed on a worker thread, so a node that falls behind drops whole
+sets and its outputs still make sets at the tracker
+(:class:`~hand_tracker_ros.ros_io.images.ImageInputs`). A set with a bad image gets one
+throttled error and is dropped; the node keeps running.
 
 In the composed tracker process (``in_process=True``) it subscribes to nothing: the tracker
 hands it each synchronized image set it is about to track (:meth:`FeaturesNode.process_set`)
@@ -21,16 +25,14 @@ from collections.abc import Sequence
 import numpy as np
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import CompressedImage, Image
+from sensor_msgs.msg import Image
 from std_msgs.msg import Header
 
 from hand_tracker_ros._typing import UInt8Array
-from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.node_config import FeaturesNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
-from hand_tracker_ros.ros_io.images import ImageInputs, image_msg
+from hand_tracker_ros.ros_io.images import ImageInputs, ImageSet, image_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
-from hand_tracker_ros.ros_io.observations import stamp_ns_of
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.features import CameraFeatures, MultiCameraFeatures
 from hand_tracker_ros.vision.visualize import edge_image, flow_image, mask_image, paste_roi
@@ -52,13 +54,12 @@ class FeaturesNode(Node):
         self.config = declare_config(self, FeaturesNodeConfig)
         self._in_process = in_process
         self._features = MultiCameraFeatures(self.config.cameras, self.config.features)
-        self._index = {c: i for i, c in enumerate(self.config.cameras)}
         self._pubs = {c: {o: self.create_publisher(Image, f'{c}/{o}', 10) for o in OUTPUTS}
                       for c in self.config.cameras}
         if not in_process:
             self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
                                        self.config.image_transport, self.config.queue_depth,
-                                       self._on_image, THROTTLE_S)
+                                       self._on_set, THROTTLE_S, self.config.sync_slop_ms)
         where = 'in the tracker process' if in_process else 'from the image topics'
         self.get_logger().info(f'features for cameras {list(self.config.cameras)} {where}')
 
@@ -74,15 +75,9 @@ class FeaturesNode(Node):
             self._publish(camera, feat, header)
         return features
 
-    def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
-        try:
-            rgb = self._inputs.decode(camera, msg)
-            stamp_ns = stamp_ns_of(msg)
-            features = self._features.extractors[self._index[camera]].process(rgb, stamp_ns)
-        except HandTrackerError as err:
-            self.get_logger().error(f'dropping a frame: {err}', throttle_duration_sec=THROTTLE_S)
-            return
-        self._publish(camera, features, msg.header)
+    def _on_set(self, image_set: ImageSet) -> None:
+        """(Standalone, the inputs' worker thread.) Features of one synchronized set."""
+        self.process_set(image_set.images_rgb, image_set.headers)
 
     def _publish(self, camera: str, features: CameraFeatures, header: Header) -> None:
         """Publish one camera's features (in process: only the topics someone reads)."""
@@ -101,7 +96,9 @@ class FeaturesNode(Node):
             pub.publish(image_msg(full, header))
 
     def destroy_node(self) -> None:
-        """Stop the feature threads, then the node."""
+        """Stop the input and feature threads, then the node."""
+        if not self._in_process:
+            self._inputs.close()
         self._features.close()
         super().destroy_node()
 

@@ -4,8 +4,10 @@ Standalone (the distributed graph), for every camera ``<cam>`` of ``cameras`` it
 (sensor-data QoS) to ``<cam>/image_raw`` (or, with ``image_transport:=compressed``, the
 jpeg/png stream ``<cam>/image_raw/compressed``) and ``<cam>/camera_info`` and publishes
 ``<cam>/salient_points`` (hand_tracker_msgs/SalientPoints, reliable, the input's header):
-unlabelled candidates (u, v in px, score in 0..1); the tracker assigns them to fingers. A bad
-image gets one throttled error and is dropped; the node keeps running.
+unlabelled candidates (u, v in px, score in 0..1); the tracker assigns them to fingers. Like
+the features node it serves whole sets, the newest first (``sync_slop_ms``,
+:class:`~hand_tracker_ros.ros_io.images.ImageInputs`). A set with a bad image gets one
+throttled error and is dropped; the node keeps running.
 
 In the composed tracker process (``in_process=True``) it subscribes to nothing: the tracker
 asks it for the detections of the sets it tracks (:meth:`SalientPointsNode.detect_set`), and
@@ -19,14 +21,12 @@ from concurrent.futures import ThreadPoolExecutor
 from hand_tracker_msgs.msg import SalientPoints
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import CompressedImage, Image
 from std_msgs.msg import Header
 
 from hand_tracker_ros._typing import UInt8Array
-from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.node_config import SalientPointsNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
-from hand_tracker_ros.ros_io.images import ImageInputs, salient_points_msg
+from hand_tracker_ros.ros_io.images import ImageInputs, ImageSet, salient_points_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.detections import SalientDetections
@@ -55,7 +55,7 @@ class SalientPointsNode(Node):
         if not in_process:
             self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
                                        self.config.image_transport, self.config.queue_depth,
-                                       self._on_image, THROTTLE_S)
+                                       self._on_set, THROTTLE_S, self.config.sync_slop_ms)
         where = 'in the tracker process' if in_process else 'from the image topics'
         self.get_logger().info(f'fingertip detection for cameras {list(self.config.cameras)} '
                                f'{where}')
@@ -71,18 +71,18 @@ class SalientPointsNode(Node):
                                                rgb.shape[0]))
         return tips
 
-    def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
-        try:
-            rgb = self._inputs.decode(camera, msg)
-            tips = self._detector.detect(rgb)
-        except HandTrackerError as err:
-            self.get_logger().error(f'dropping a frame: {err}', throttle_duration_sec=THROTTLE_S)
-            return
-        height, width = rgb.shape[:2]
-        self._pubs[camera].publish(salient_points_msg(tips, msg.header, camera, width, height))
+    def _on_set(self, image_set: ImageSet) -> None:
+        """(Standalone, the inputs' worker thread.) Detections of one synchronized set."""
+        tips = list(self._pool.map(self._detector.detect, image_set.images_rgb))
+        for camera, found, rgb, header in zip(image_set.cameras, tips, image_set.images_rgb,
+                                              image_set.headers):
+            self._pubs[camera].publish(salient_points_msg(found, header, camera, rgb.shape[1],
+                                                          rgb.shape[0]))
 
     def destroy_node(self) -> None:
-        """Stop the detection threads, then the node."""
+        """Stop the input and detection threads, then the node."""
+        if not self._in_process:
+            self._inputs.close()
         self._pool.shutdown(wait=True)
         super().destroy_node()
 

@@ -77,7 +77,7 @@ from hand_tracker_ros.pipeline.live import LivePipeline
 from hand_tracker_ros.pipeline.warmup import warm_up
 from hand_tracker_ros.ros_io import outputs
 from hand_tracker_ros.ros_io.estimates import EstimateEncoder
-from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info
+from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info, stamp_ns_of
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.message_kit import RclpyKit, message_class
 from hand_tracker_ros.ros_io.observations import (
@@ -85,7 +85,6 @@ from hand_tracker_ros.ros_io.observations import (
     FrameAssembler,
     frame_observations,
     part_value,
-    stamp_ns_of,
 )
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.status import TrackStatus

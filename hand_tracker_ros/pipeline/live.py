@@ -79,6 +79,59 @@ class LatestSet(Generic[Item]):
             return self._cond.wait_for(lambda: self._item is None, timeout_s)
 
 
+class NewestSetWorker(Generic[Item]):
+    """One thread processes the newest offered item; one offered while an older one still
+    waits replaces it and counts as ``skipped``.
+
+    For nodes that serve synchronized camera sets (the distributed graph's features and
+    salient_points): one that falls behind drops whole sets. Processing each camera's frames
+    as they came and letting each camera's queue overflow dropped different frames per
+    camera, and their features no longer made sets (4 x 640x480: 243 of about 260 frames per
+    camera reached the tracker in no set).
+
+    Parameters
+    ----------
+    process : callable
+        ``process(item)``, on the worker thread.
+    on_error : callable
+        Called with each exception ``process`` raised; the thread keeps running.
+    name : str
+        The thread's name.
+    """
+
+    def __init__(self, process: Callable[[Item], None],
+                 on_error: Callable[[BaseException], None], name: str) -> None:
+        self._process, self._on_error = process, on_error
+        self._inbox: LatestSet[Item] = LatestSet()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    @property
+    def skipped(self) -> int:
+        """Offered items replaced by a newer one before the worker took them."""
+        return self._inbox.skipped
+
+    def offer(self, item: Item) -> None:
+        """A new item (any thread)."""
+        self._inbox.put(item, time.monotonic())
+
+    def close(self, timeout_s: float = 10.0) -> None:
+        """Stop the thread (the item in progress is finished)."""
+        self._stop.set()
+        self._thread.join(timeout_s)
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            taken = self._inbox.take(_POLL_S)
+            if taken is None:
+                continue
+            try:
+                self._process(taken[0])
+            except Exception as err:  # noqa: BLE001 - the thread must outlive one bad item
+                self._on_error(err)
+
+
 class LivePipeline(Generic[Item, Observed]):
     """Observe the newest set, track every observed one (module docstring).
 

@@ -13,8 +13,9 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from hand_tracker_ros.errors import HandTrackerError
+from hand_tracker_ros.ros_io.images import stamp_ns_of
 from hand_tracker_ros.ros_io.message_kit import message_class
-from hand_tracker_ros.ros_io.observations import PARTS, stamp_ns_of
+from hand_tracker_ros.ros_io.observations import PARTS
 from hand_tracker_ros.ros_io.raw import keep_last_qos
 
 

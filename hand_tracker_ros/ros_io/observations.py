@@ -54,11 +54,6 @@ IMAGE_LAYOUTS = {'edges': ('mono8', 1, np.uint8), 'edge_orientation': ('32FC1', 
                  'mask': ('mono8', 1, np.uint8), 'flow': ('32FC2', 2, np.float32)}
 
 
-def stamp_ns_of(msg: Any) -> int:
-    """The header stamp of a stamped message, in ns."""
-    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-
-
 def feature_image(msg: Image, camera_name: str, topic: str,
                   size_px: tuple[int, int]) -> np.ndarray:
     """Decode one feature image, checking encoding, size, step and buffer length.

@@ -78,15 +78,19 @@ def test_features_node_matches_the_core_and_survives_bad_images(node_process, ro
         spin_until(lambda: False, 0.3)  # pace the frames like a camera would
     stamps = [f.stamp_ns for f in sequence]
     assert spin_until(lambda: all((c, 'flow', stamps[-1]) in received for c in CAMERAS), 30.0)
+    # A set with a bad image is dropped whole (the other camera's good image of that stamp
+    # too), with an error; the next set is served.
     bad = Image(height=240, width=320, encoding='64FC1', step=2560)
     bad.data = bytes(240 * 2560)
-    bad.header.stamp.sec = 1
+    bad.header.stamp.sec = 1_750_000_000
     pubs['cam0'].publish(bad)
+    publish('cam1', sequence.frame(0).images[1], 1_750_000_000 * 10**9)
     assert spin_until(lambda: "unsupported encoding '64FC1'" in features.output(), 20.0)
-    header = Header()
-    header.stamp.sec = 1_800_000_000
-    pubs['cam0'].publish(image_msg(sequence.frame(0).images[0], header))
-    assert spin_until(lambda: ('cam0', 'edges', 1_800_000_000 * 10**9) in received, 20.0)
+    for cam, image in zip(CAMERAS, sequence.frame(0).images):
+        publish(cam, image, 1_800_000_000 * 10**9)
+    assert spin_until(lambda: all((c, 'edges', 1_800_000_000 * 10**9) in received
+                                  for c in CAMERAS), 20.0)
+    assert ('cam1', 'edges', 1_750_000_000 * 10**9) not in received
     for (cam, stamp), feats in expected.items():
         np.testing.assert_array_equal(received[(cam, 'edges', stamp)], edge_image(feats.edges))
         np.testing.assert_array_equal(received[(cam, 'mask', stamp)], mask_image(feats.mask))

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from hand_tracker_ros.pipeline.live import LatestSet, LivePipeline
+from hand_tracker_ros.pipeline.live import LatestSet, LivePipeline, NewestSetWorker
 
 
 def test_newest_set_wins_and_skipped_sets_are_counted() -> None:
@@ -93,3 +93,33 @@ def test_the_next_set_is_observed_just_before_the_fit_in_progress_ends() -> None
         live.close()
     assert len(lags) > 10
     assert np.median(lags[3:]) <= 2, lags      # the first fits have no durations measured yet
+
+
+def test_the_set_worker_serves_the_newest_set_drops_whole_ones_and_outlives_errors() -> None:
+    started, release = threading.Event(), threading.Event()
+    served, errors = [], []
+
+    def process(item: int) -> None:
+        if item == 0:
+            started.set()
+            release.wait(5.0)
+        if item == 3:
+            raise ValueError('bad set')
+        served.append(item)
+
+    worker = NewestSetWorker(process, errors.append, 'test-sets')
+    worker.offer(0)
+    assert started.wait(5.0)
+    for item in (1, 2, 3):      # offered while 0 is processed: only the newest waits
+        worker.offer(item)
+    release.set()
+    deadline = time.monotonic() + 5.0
+    while not errors and time.monotonic() < deadline:
+        time.sleep(0.01)
+    worker.offer(4)
+    while 4 not in served and time.monotonic() < deadline:
+        time.sleep(0.01)
+    worker.close()
+    assert served == [0, 4]
+    assert [str(e) for e in errors] == ['bad set']
+    assert worker.skipped == 2
