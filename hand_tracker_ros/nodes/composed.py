@@ -21,7 +21,7 @@ from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
 from hand_tracker_ros.nodes.features_node import FeaturesNode
 from hand_tracker_ros.nodes.salient_points_node import SalientPointsNode
-from hand_tracker_ros.nodes.tracker_node import TrackerNode
+from hand_tracker_ros.nodes.tracker import TrackerNode
 from hand_tracker_ros.sync.approximate import SyncedSet
 from hand_tracker_ros.tracking.attention import Attention
 from hand_tracker_ros.vision.detections import SalientDetections
