@@ -54,7 +54,7 @@ class InProcessObserver:
         plan = self._attention.plan(self._tracker.session)
         features = self._features.process_set(images, headers, plan.rois_px)
         if plan.detect:
-            tips = self._salient.detect_set(images, headers)
+            tips = self._salient.detect_set(images, headers, plan.rois_px)
         else:
             tips = [SalientDetections.empty()] * len(cameras)
         return FrameObservations(synced.stamp_ns, tuple(

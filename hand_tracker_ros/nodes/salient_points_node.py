@@ -31,6 +31,7 @@ from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import FingertipDetector
+from hand_tracker_ros.vision.image import Box
 
 DESCRIPTION = 'Per-camera fingertip (salient point) detection with the trained detector.'
 THROTTLE_S = 5.0
@@ -60,10 +61,12 @@ class SalientPointsNode(Node):
         self.get_logger().info(f'fingertip detection for cameras {list(self.config.cameras)} '
                                f'{where}')
 
-    def detect_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header]
-                   ) -> list[SalientDetections]:
-        """Detections of one synchronized set, cameras in ``cameras`` order (in process)."""
-        tips = list(self._pool.map(self._detector.detect, images_rgb))
+    def detect_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header],
+                   rois_px: Sequence[Box | None] | None = None) -> list[SalientDetections]:
+        """Detections of one synchronized set, cameras in ``cameras`` order (in process),
+        each in its region of interest (None: the whole image)."""
+        rois = list(rois_px) if rois_px is not None else [None] * len(images_rgb)
+        tips = list(self._pool.map(self._detector.detect, images_rgb, rois))
         for camera, found, rgb, header in zip(self.config.cameras, tips, images_rgb, headers):
             pub = self._pubs[camera]
             if pub.get_subscription_count() > 0:

@@ -40,9 +40,11 @@ from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
 from hand_tracker_ros.vision.edges import edge_map_from
 from hand_tracker_ros.vision.features import CameraFeatures, FeaturesConfig, MultiCameraFeatures
+from hand_tracker_ros.vision.image import Box
 from hand_tracker_ros.vision.resolution import to_working, working_camera
 
-Detector = Callable[[UInt8Array], SalientDetections]
+# image (H, W, 3) uint8, region of interest (None: the whole image) -> fingertip candidates
+Detector = Callable[[UInt8Array, Box | None], SalientDetections]
 
 
 @dataclass(frozen=True)
@@ -119,7 +121,8 @@ class OfflinePipeline:
         if self.config.edge_noise.enabled:
             features = tuple(self._noisy(f, c) for c, f in enumerate(features))
         mid = time.perf_counter()
-        tips = (list(self._detection_pool.map(self._detector, images))
+        rois = plan.rois_px if plan.rois_px is not None else [None] * len(images)
+        tips = (list(self._detection_pool.map(self._detector, images, rois))
                 if self._detector and plan.detect
                 else [SalientDetections.empty()] * len(images))
         end = time.perf_counter()

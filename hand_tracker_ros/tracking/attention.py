@@ -8,7 +8,7 @@ small next to the silhouette and edges that carry a tracked hand):
 - features in a region of interest per camera (:func:`.roi.hand_rois` of the last accepted
   estimate) when ``use_roi``;
 - fingertips detected in every ``detect_every``-th tracked set (counted from the last set
-  that was not tracked).
+  that was not tracked), in the same region of interest.
 
 While it does not track (start, LOST, after a search), features and detections cover every
 image of every set: the search and the recovery need them most.
@@ -49,8 +49,8 @@ class ObservationPlan:
     Attributes
     ----------
     rois_px : list of (u0, v0, u1, v1) or None, or None
-        Per camera, the half-open feature box in px (None: that whole image); None: every
-        whole image.
+        Per camera, the half-open box in px of the features and the detections (None: that
+        whole image); None: every whole image.
     detect : bool
         Whether to detect fingertips in this set.
     """

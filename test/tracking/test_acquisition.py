@@ -27,7 +27,7 @@ def observed(hand_model):
 
 def _session(hand_model, sequence, **values):
     pipeline = OfflinePipeline(hand_model, sequence.rig, from_mapping(PipelineConfig, values),
-                               detector=lambda image: None)
+                               detector=lambda image, roi: None)
     pipeline.close()      # only its session is used
     return pipeline.session
 

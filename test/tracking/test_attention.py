@@ -2,12 +2,15 @@
 and a fingertip detection every few sets; the offline pipeline observes what it plans."""
 from __future__ import annotations
 
+from collections import Counter
+
 from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.attention import Attention, AttentionConfig, ObservationPlan
 from hand_tracker_ros.tracking.roi import hand_rois
+from hand_tracker_ros.vision.detections import SalientDetections
 
 
 class _Session:
@@ -54,3 +57,24 @@ def test_offline_pipeline_observes_what_the_plan_of_a_tracked_hand_says(hand_mod
         assert all(len(c.tips.uv_px) > 0 for c in everything.cameras)
     finally:
         pipe.close()
+
+
+def test_a_tracked_hand_is_detected_in_the_plans_region_of_interest(hand_model) -> None:
+    sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=2), hand_model)
+    shot = sequence.frame(1)
+    asked = []
+
+    def detector(image, roi_px):
+        asked.append(roi_px)
+        return SalientDetections.empty()
+
+    pipe = OfflinePipeline(hand_model, sequence.rig, PipelineConfig(), detector=detector)
+    try:
+        posed = hand_model.pose(sequence.thetas[0], jacobian=False)
+        boxes = hand_rois(posed, sequence.rig.cameras)
+        pipe.observe(FrameSet(shot.stamp_ns, shot.images), ObservationPlan(boxes, True))
+        pipe.observe(FrameSet(shot.stamp_ns, shot.images))
+    finally:
+        pipe.close()
+    # Two detection threads: the calls' order is not the cameras'.
+    assert Counter(asked) == Counter([*boxes, *[None] * len(boxes)])
