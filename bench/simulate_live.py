@@ -43,7 +43,7 @@ def simulate(seed: int, args: argparse.Namespace, config: PipelineConfig) -> str
                                              fps=args.fps), model)
     frames = [sequence.frame(k) for k in range(args.frames)]
     pipeline = OfflinePipeline(model, sequence.rig, config)
-    attention = Attention(config.attention, sequence.rig.cameras)
+    attention = Attention(config.attention, pipeline.cameras)
     session = pipeline.session
     if args.start == 'truth':
         session.reset(frames[0].theta)

@@ -79,8 +79,9 @@ class TrackerNodeConfig:
                                  choices=IMAGE_TRANSPORTS)
     attention: AttentionConfig = nested(AttentionConfig)
     working_width_px: int = param(320, "with inputs 'images': track wider images scaled down "
-                                  'to this width (vision/resolution.py), so that a 640x480 '
-                                  'rig keeps up with 30 Hz on two cores; 0: at their own size',
+                                  'to this width (vision/resolution.py): a 640x480 rig then '
+                                  'costs what a 320x240 one does, at about twice its error; '
+                                  '0: at their own size',
                                   unit='px', low=0, high=100000)
     budget_ms: float = param(0.0, "time for one set's main fit: a correspondence round that "
                              'would end later is not started; 0 = the measured period '

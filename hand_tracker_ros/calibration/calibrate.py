@@ -50,7 +50,7 @@ from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.energies.registry import TermsConfig
 from hand_tracker_ros.errors import ConfigError
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import Layout
@@ -142,8 +142,9 @@ def select_frames(thetas: FloatArray, confidence: FloatArray, n: int) -> IntArra
 
 
 def _observe(bag: str | Path, rig: CameraRig, stamps_ns: Sequence[int], model: HandModel,
-             config: PipelineConfig) -> tuple[FrameObservations, ...]:
-    """Features and detections of the frame sets at ``stamps_ns`` (in that order)."""
+             config: PipelineConfig) -> tuple[tuple[Camera, ...], tuple[FrameObservations, ...]]:
+    """The cameras the observations are in (the working resolution's) and the features and
+    detections of the frame sets at ``stamps_ns`` (in that order)."""
     wanted, found = set(stamps_ns), {}
     pipeline = OfflinePipeline(model, rig, config)
     try:
@@ -153,14 +154,14 @@ def _observe(bag: str | Path, rig: CameraRig, stamps_ns: Sequence[int], model: H
                     found[frames.stamp_ns] = pipeline.observe(frames)[0]
     finally:
         pipeline.close()
-    return tuple(found[s] for s in stamps_ns)
+    return pipeline.cameras, tuple(found[s] for s in stamps_ns)
 
 
 @dataclass(frozen=True, eq=False)
 class _Picked:
     """The observed frames of one pass."""
 
-    cameras: tuple[PinholeCamera, ...]
+    cameras: tuple[Camera, ...]
     observations: tuple[FrameObservations, ...]
     terms: TermsConfig
 
@@ -235,8 +236,9 @@ def calibrate_bag(bag: str | Path, *, rig_path: str | Path | None = None,
         if p > 0:
             tracked = _track(bag, rig_path, config.refine_pipeline, HandShape.from_vector(x))
         stamps, thetas, n_candidates = _pick(tracked, config)
-        picked = _Picked(rig.cameras, _observe(bag, rig, stamps, HandModel.build(initial),
-                                               config.pipeline), config.pipeline.tracker.terms)
+        cameras, observed = _observe(bag, rig, stamps, HandModel.build(initial),
+                                     config.pipeline)
+        picked = _Picked(cameras, observed, config.pipeline.tracker.terms)
         for r in range(config.rounds):
             frames = picked.at(thetas, x)
             thetas, x, _ = fit_round(frames, thetas, x, x_bar, frames[0].model.lower,

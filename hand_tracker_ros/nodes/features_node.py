@@ -10,7 +10,7 @@ the tracker's orientation check needs), ``<cam>/mask`` (mono8, 255 on the hand) 
 It serves whole sets: the cameras' images are grouped by stamp (``sync_slop_ms``) and the
 newest complete set is processed on a worker thread, so a node that falls behind drops whole
 sets and its outputs still make sets at the tracker
-(:class:`~hand_tracker_ros.ros_io.images.ImageInputs`). A set with a bad image gets one
+(:class:`~hand_tracker_ros.ros_io.image_inputs.ImageInputs`). A set with a bad image gets one
 throttled error and is dropped; the node keeps running.
 
 In the composed tracker process (``in_process=True``) it subscribes to nothing: the tracker
@@ -29,9 +29,11 @@ from sensor_msgs.msg import Image
 from std_msgs.msg import Header
 
 from hand_tracker_ros._typing import UInt8Array
+from hand_tracker_ros.bags.convert import stamp_ns_of
 from hand_tracker_ros.node_config import FeaturesNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
-from hand_tracker_ros.ros_io.images import ImageInputs, ImageSet, image_msg
+from hand_tracker_ros.ros_io.image_inputs import ImageInputs, ImageSet
+from hand_tracker_ros.ros_io.images import image_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.features import CameraFeatures, MultiCameraFeatures
@@ -66,10 +68,11 @@ class FeaturesNode(Node):
     def process_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header],
                     rois_px: Sequence[tuple[int, int, int, int] | None] | None = None
                     ) -> tuple[CameraFeatures, ...]:
-        """Features of one synchronized set, cameras in ``cameras`` order (in process), each
-        in its region of interest ``(u0, v0, u1, v1)`` (None: the whole image); published
-        at full size."""
-        stamps = [h.stamp.sec * 10**9 + h.stamp.nanosec for h in headers]
+        """Features of one synchronized set, cameras in ``cameras`` order, each in its region
+        of interest ``(u0, v0, u1, v1)`` (None: the whole image); published at the images'
+        size (in process: the tracker's working resolution, and only while someone
+        subscribes)."""
+        stamps = [stamp_ns_of(h) for h in headers]
         features = self._features.process(images_rgb, stamps, rois_px=rois_px)
         for camera, feat, header in zip(self.config.cameras, features, headers):
             self._publish(camera, feat, header)
@@ -96,9 +99,11 @@ class FeaturesNode(Node):
             pub.publish(image_msg(full, header))
 
     def destroy_node(self) -> None:
-        """Stop the input and feature threads, then the node."""
+        """Stop the input and feature threads (logging where the input sets went), then the
+        node."""
         if not self._in_process:
             self._inputs.close()
+            self.get_logger().info(self._inputs.summary())
         self._features.close()
         super().destroy_node()
 

@@ -6,7 +6,7 @@ jpeg/png stream ``<cam>/image_raw/compressed``) and ``<cam>/camera_info`` and pu
 ``<cam>/salient_points`` (hand_tracker_msgs/SalientPoints, reliable, the input's header):
 unlabelled candidates (u, v in px, score in 0..1); the tracker assigns them to fingers. Like
 the features node it serves whole sets, the newest first (``sync_slop_ms``,
-:class:`~hand_tracker_ros.ros_io.images.ImageInputs`). A set with a bad image gets one
+:class:`~hand_tracker_ros.ros_io.image_inputs.ImageInputs`). A set with a bad image gets one
 throttled error and is dropped; the node keeps running.
 
 In the composed tracker process (``in_process=True``) it subscribes to nothing: the tracker
@@ -26,7 +26,8 @@ from std_msgs.msg import Header
 from hand_tracker_ros._typing import UInt8Array
 from hand_tracker_ros.node_config import SalientPointsNodeConfig
 from hand_tracker_ros.nodes._runner import run_node
-from hand_tracker_ros.ros_io.images import ImageInputs, ImageSet, salient_points_msg
+from hand_tracker_ros.ros_io.image_inputs import ImageInputs, ImageSet
+from hand_tracker_ros.ros_io.images import salient_points_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.vision.detections import SalientDetections
@@ -63,29 +64,28 @@ class SalientPointsNode(Node):
 
     def detect_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header],
                    rois_px: Sequence[Box | None] | None = None) -> list[SalientDetections]:
-        """Detections of one synchronized set, cameras in ``cameras`` order (in process),
-        each in its region of interest (None: the whole image)."""
+        """Detections of one synchronized set, cameras in ``cameras`` order, each in its
+        region of interest (None: the whole image); published (in process: only while
+        someone subscribes)."""
         rois = list(rois_px) if rois_px is not None else [None] * len(images_rgb)
         tips = list(self._pool.map(self._detector.detect, images_rgb, rois))
         for camera, found, rgb, header in zip(self.config.cameras, tips, images_rgb, headers):
             pub = self._pubs[camera]
-            if pub.get_subscription_count() > 0:
+            if not self._in_process or pub.get_subscription_count() > 0:
                 pub.publish(salient_points_msg(found, header, camera, rgb.shape[1],
                                                rgb.shape[0]))
         return tips
 
     def _on_set(self, image_set: ImageSet) -> None:
         """(Standalone, the inputs' worker thread.) Detections of one synchronized set."""
-        tips = list(self._pool.map(self._detector.detect, image_set.images_rgb))
-        for camera, found, rgb, header in zip(image_set.cameras, tips, image_set.images_rgb,
-                                              image_set.headers):
-            self._pubs[camera].publish(salient_points_msg(found, header, camera, rgb.shape[1],
-                                                          rgb.shape[0]))
+        self.detect_set(image_set.images_rgb, image_set.headers)
 
     def destroy_node(self) -> None:
-        """Stop the input and detection threads, then the node."""
+        """Stop the input and detection threads (logging where the input sets went), then
+        the node."""
         if not self._in_process:
             self._inputs.close()
+            self.get_logger().info(self._inputs.summary())
         self._pool.shutdown(wait=True)
         super().destroy_node()
 

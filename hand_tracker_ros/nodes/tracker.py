@@ -13,7 +13,9 @@ hosts the features and salient_points nodes, data in memory) ``<cam>/<image_topi
 included), ``hand/markers`` (MarkerArray, DELETEALL when not tracking), ``/tf`` (every URDF
 joint, only while TRACKING; ``publish_tf``), ``hand/robot_description`` (the URDF rooted at
 ``world_frame``, once, transient local), ``/diagnostics`` (every ``diagnostics_period_s``)
-and, with ``publish_overlay``, ``<cam>/overlay`` (rgb8). The estimates are converted by
+and, with ``publish_overlay``, ``<cam>/overlay`` (rgb8, at the working resolution: images
+wider than ``working_width_px`` are observed and fitted scaled down,
+:mod:`hand_tracker_ros.vision.resolution`). The estimates are converted by
 :class:`hand_tracker_ros.ros_io.estimates.EstimateEncoder`, the one conversion the offline
 estimates bags use too. Output stamps are the input set's stamp, frame ids ``world_frame``
 (overlays: ``<cam>`` + ``optical_frame_suffix``).
@@ -63,6 +65,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 from hand_tracker_ros import topics
+from hand_tracker_ros.bags.convert import stamp_ns_of
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.errors import ConfigError, HandTrackerError
@@ -75,7 +78,7 @@ from hand_tracker_ros.pipeline.live import LivePipeline
 from hand_tracker_ros.pipeline.warmup import warm_up
 from hand_tracker_ros.ros_io import outputs
 from hand_tracker_ros.ros_io.estimates import EstimateEncoder
-from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info, stamp_ns_of
+from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.message_kit import RclpyKit, message_class
 from hand_tracker_ros.ros_io.observations import (
@@ -178,6 +181,7 @@ class TrackerNode(Node):
         self._status: TrackStatus | None = None
         self._reinits = 0
         self._estimated = 0     # sets tracked and published since the start
+        self._failed = 0        # sets an error dropped (observing or tracking them)
         self._logged: dict[str, float] = {}
 
     def _create_outputs(self) -> None:
@@ -220,7 +224,7 @@ class TrackerNode(Node):
 
     def _on_image(self, camera: str, msg: Image | CompressedImage) -> None:
         if self._inputs.accepts(camera):
-            self._on_camera_frame(camera, stamp_ns_of(msg), msg)
+            self._on_camera_frame(camera, stamp_ns_of(msg.header), msg)
 
     def _on_part(self, camera: str, part: str, msg: Image | SalientPoints) -> None:
         if not self._inputs.accepts(camera):
@@ -231,7 +235,8 @@ class TrackerNode(Node):
         except HandTrackerError as err:
             self._log_throttled(f'{camera}/{part}', 'error', f'dropping a message: {err}')
             return
-        frame = self._assemblers[camera].add(part, stamp_ns_of(msg), value, time.monotonic())
+        frame = self._assemblers[camera].add(part, stamp_ns_of(msg.header), value,
+                                             time.monotonic())
         if frame is not None:
             self._on_camera_frame(camera, frame.stamp_ns, frame)
 
@@ -304,6 +309,8 @@ class TrackerNode(Node):
         """A pipeline thread's failure on one set: logged (throttled), the node goes on."""
         if not rclpy.ok(context=self.context):
             return
+        with self._lock:
+            self._failed += 1
         if isinstance(err, HandTrackerError):
             self._log_throttled('observe', 'error', f'dropping a set: {err}')
             return
@@ -322,6 +329,8 @@ class TrackerNode(Node):
             result = self._session.step(observations, deadline_s=time.monotonic() + budget_s)
         except HandTrackerError as err:
             self._log_throttled('initialize', 'warning', f'cannot find the hand yet: {err}')
+            with self._lock:
+                self._failed += 1
             return
         processing_s = time.monotonic() - received_s
         self._publish(result, observations, processing_s)
@@ -370,8 +379,10 @@ class TrackerNode(Node):
     def _input_summary(self) -> str:
         """Where the input sets went, for the log at shutdown: each camera's frames, the sets
         synchronized, those a newer set replaced before the tracker took them (the tracker
-        was busy: :mod:`hand_tracker_ros.pipeline.live`) and those estimated."""
+        was busy: :mod:`hand_tracker_ros.pipeline.live`), those estimated and those an error
+        dropped."""
         assert self._pipeline is not None
         return (f'input: {self._sync.stats.summary()}, {self._pipeline.skipped} replaced by '
-                f'a newer one before the tracker was free, {self._estimated} estimated')
+                f'a newer one before the tracker was free, {self._estimated} estimated, '
+                f'{self._failed} dropped by an error (logged above)')
 

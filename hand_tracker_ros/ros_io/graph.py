@@ -12,8 +12,8 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
+from hand_tracker_ros.bags.convert import stamp_ns_of
 from hand_tracker_ros.errors import HandTrackerError
-from hand_tracker_ros.ros_io.images import stamp_ns_of
 from hand_tracker_ros.ros_io.message_kit import message_class
 from hand_tracker_ros.ros_io.observations import PARTS
 from hand_tracker_ros.ros_io.raw import keep_last_qos
@@ -125,7 +125,7 @@ class StampWatch:
 
     def _on_message(self, msg: Any) -> None:
         with self._heard:
-            self._stamps_ns.add(stamp_ns_of(msg))
+            self._stamps_ns.add(stamp_ns_of(msg.header))
             self._heard.notify_all()
 
     def wait_for(self, stamp_ns: int, timeout_s: float) -> bool:

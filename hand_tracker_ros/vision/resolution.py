@@ -1,8 +1,10 @@
 """The tracking resolution: images wider than a working width are scaled down with their camera.
 
 The tracker's cost grows with the pixels it observes (features, detection, the model's
-rendering and silhouette), and a hand that covers 200 px of a 640 px image is tracked
-nearly as well from 320 px. Each image wider than ``width_px`` is resized to ``width_px``
+rendering and silhouette). A live tracker that cannot keep up with a 640x480 rig skips sets,
+and the motion between the sets it keeps breaks its warm start; from 320 px it keeps up
+like a 320x240 rig, at about twice the error of 640 px offline (README, "Live, in real
+time"). Each image wider than ``width_px`` is resized to ``width_px``
 (``cv2.INTER_AREA``, the height by the same factor, rounded) before the features and the
 detector see it, and the camera the tracker fits with is :meth:`Camera.scaled` to that size
 (the intrinsics follow; pose and distortion stay). Estimates stay in metres.

@@ -24,7 +24,7 @@ def test_live_graph_tracks_a_bag_like_the_offline_path(tmp_path: Path, hand_mode
     published = f'{outcome.joint_states} JointStates of {outcome.input_sets} sets'
     assert outcome.joint_states >= 0.95 * outcome.input_sets, published
     assert outcome.scores is not None, published
-    offline = offline_mean_error_mm(str(bag), None)
+    offline = offline_mean_error_mm(str(bag), None, 0)   # 320x240: no scaling either way
     live = (f'live {outcome.scores.joint_mean_mm:.2f} mm, offline {offline:.2f} mm, '
             f'{outcome.scores.failures} failures; per frame: {outcome.errors_mm.round(1)}')
     assert outcome.scores.joint_mean_mm <= 1.5 * offline, live
