@@ -71,4 +71,6 @@ def compose() -> Sequence[Node]:
     features = FeaturesNode(in_process=True, cameras=cameras)
     salient = SalientPointsNode(in_process=True, cameras=cameras)
     tracker.start(InProcessObserver(tracker, features, salient))
-    return [tracker, features, salient]
+    # run_node destroys the nodes in reverse: the tracker, whose pipeline threads call the
+    # other two, stops first.
+    return [features, salient, tracker]
