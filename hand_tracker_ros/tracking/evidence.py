@@ -44,11 +44,14 @@ from hand_tracker_ros._typing import BoolArray, FloatArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.views import ModelView
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.vision.edges import nearest_edges
 from hand_tracker_ros.vision.features import CameraFeatures
 from hand_tracker_ros.vision.visualize import paste_roi
 
 SIGNALS = ('coverage', 'edge_coverage', 'tip_agreement')
+# Cells across the image width of :func:`splat_iou`: 4 px cells at 320 px.
+SPLAT_CELLS = 80
 
 
 @dataclass(frozen=True)
@@ -132,6 +135,59 @@ def silhouette_iou(views: Sequence[ModelView], observations: FrameObservations) 
         if union:
             ious.append(np.count_nonzero(view.raster.mask & data) / union)
     return float(np.mean(ious)) if ious else 0.0
+
+
+class CoarseMasks:
+    """The observed masks on a coarse grid, for :meth:`iou`: a cheap stand-in for
+    :func:`silhouette_iou` that needs no rendering, to rank many start hypotheses.
+
+    Each camera's grid has about ``cells`` cells across the image width; a cell is foreground
+    when any of its pixels is. A model is splatted: each mesh vertex marks the cell it
+    projects to. The projection of every vertex of a closed mesh covers its silhouette, so no
+    visibility is needed, as long as the cells are large enough for the vertices to leave no
+    holes (at 4 px cells the hand spans tens of cells). On random-motion sets its ranking of
+    the 48 start hypotheses has a Spearman correlation of 0.97-0.98 with the rendered IoU's,
+    at 320x240 and 640x480.
+    """
+
+    def __init__(self, observations: FrameObservations, cameras: Sequence[Camera],
+                 cells: int = SPLAT_CELLS) -> None:
+        self._cameras = tuple(cameras)
+        self._cell = [max(1, int(c.width) // cells) for c in self._cameras]
+        self._data = [_coarse(_full_mask(obs.features), cell).ravel()
+                      for obs, cell in zip(observations.cameras, self._cell)]
+        self._shape = [_coarse_shape(obs.features.image_size_px, cell)
+                       for obs, cell in zip(observations.cameras, self._cell)]
+
+    def iou(self, vertices_m: FloatArray) -> float:
+        """Mean IoU over the cameras of the splat of ``vertices_m`` (V, 3) (m) and the
+        observed mask (0 where neither has a cell)."""
+        ious = []
+        for camera, cell, data, (rows, cols) in zip(self._cameras, self._cell, self._data,
+                                                    self._shape):
+            uv, _ = camera.project(vertices_m)
+            ij = np.floor(uv / cell)             # NaN (behind the camera) fails every test
+            ok = (ij[:, 0] >= 0) & (ij[:, 0] < cols) & (ij[:, 1] >= 0) & (ij[:, 1] < rows)
+            model = np.zeros(rows * cols, bool)
+            model[(ij[ok, 1] * cols + ij[ok, 0]).astype(np.intp)] = True
+            union = np.count_nonzero(model | data)
+            if union:
+                ious.append(np.count_nonzero(model & data) / union)
+        return float(np.mean(ious)) if ious else 0.0
+
+
+def _coarse_shape(size_px: tuple[int, int], cell: int) -> tuple[int, int]:
+    """Rows and columns of the coarse grid of a ``(width, height)`` image."""
+    width, height = size_px
+    return -(-int(height) // cell), -(-int(width) // cell)
+
+
+def _coarse(mask: BoolArray, cell: int) -> BoolArray:
+    """(H, W) -> (ceil(H / cell), ceil(W / cell)): a cell is set when any of its pixels is."""
+    rows, cols = _coarse_shape((mask.shape[1], mask.shape[0]), cell)
+    padded = np.zeros((rows * cell, cols * cell), bool)
+    padded[:mask.shape[0], :mask.shape[1]] = mask
+    return padded.reshape(rows, cell, cols, cell).any(axis=(1, 3))
 
 
 def confidence(evidence: Mapping[str, float], config: EvidenceConfig) -> float:

@@ -2,8 +2,11 @@
 
 1. **Where**: the centre of the visual hull of the foreground masks (:func:`locate_hand`).
 2. **How oriented**: hypotheses of the relaxed hand centred there, rotated over a grid of
-   roll (about the finger axis) and pitch angles, are scored by the mean silhouette IoU of the
-   rendered model with the observed masks (:func:`.evidence.silhouette_iou`).
+   roll (about the finger axis) and pitch angles, are ranked by the mean silhouette IoU of
+   the model with the observed masks, on a coarse grid with the model's vertices splatted
+   (:class:`.evidence.CoarseMasks`; rendering the 48 hypotheses took 140 ms at 4 x 320x240
+   and 260 ms at 4 x 640x480, the splat 32-34 ms, with rankings of Spearman correlation
+   0.97-0.98).
 3. **Refine**: the ``keep`` best hypotheses get ``quick_passes`` short fits (one round,
    :data:`.schedule.QUICK`) and are ranked by the caller's ``score`` (the tracking session
    passes its confidence, :mod:`.evidence`; the default is the silhouette IoU); the
@@ -29,7 +32,7 @@ from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.model.poses import RELAXED_DEG, with_joints_deg
-from hand_tracker_ros.tracking.evidence import silhouette_iou
+from hand_tracker_ros.tracking.evidence import CoarseMasks, silhouette_iou
 from hand_tracker_ros.tracking.schedule import QUICK, Round
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
@@ -118,6 +121,17 @@ def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArr
     return out
 
 
+def ranked_hypotheses(tracker: HandTracker, observations: FrameObservations,
+                      center_m: FloatArray, config: InitConfig) -> list[FloatArray]:
+    """The hypotheses of :func:`hypotheses` at ``center_m``, best coarse silhouette IoU
+    first (ties in grid order)."""
+    masks = CoarseMasks(observations, tracker.cameras)
+    scored = [(masks.iou(tracker.model.pose(theta, jacobian=False).vertices_m), k, theta)
+              for k, theta in enumerate(hypotheses(tracker.model, center_m, config))]
+    scored.sort(key=lambda item: (-item[0], item[1]))
+    return [theta for _, _, theta in scored]
+
+
 def initialize(tracker: HandTracker, observations: FrameObservations,
                config: InitConfig = InitConfig(),
                score: Callable[[Fit], float] | None = None) -> FloatArray:
@@ -127,11 +141,7 @@ def initialize(tracker: HandTracker, observations: FrameObservations,
     """
     masks = [c.features.mask for c in observations.cameras]
     center = locate_hand(tracker.cameras, masks, config.min_mask_px)
-    scored = []
-    for theta in hypotheses(tracker.model, center, config):
-        views = tracker.views(tracker.model.pose(theta, jacobian=False))
-        scored.append((silhouette_iou(views, observations), theta))
-    scored.sort(key=lambda item: -item[0])
+    ranked = ranked_hypotheses(tracker, observations, center, config)
     if score is None:
         def score(fit: Fit) -> float:
             return silhouette_iou(fit.views, observations)
@@ -143,7 +153,7 @@ def initialize(tracker: HandTracker, observations: FrameObservations,
             tracker.reset(fit.theta)
         return fit
 
-    quick = [refined(theta, config.quick_passes, QUICK) for _, theta in scored[:config.keep]]
+    quick = [refined(theta, config.quick_passes, QUICK) for theta in ranked[:config.keep]]
     quick.sort(key=lambda fit: -score(fit))
     finals = [refined(fit.theta, config.refine_frames, None) for fit in quick[:config.refine_best]]
     best_score, best = max(((score(fit), fit.theta) for fit in finals), key=lambda item: item[0])
