@@ -50,7 +50,7 @@ from hand_tracker_ros.vision.features import CameraFeatures
 from hand_tracker_ros.vision.visualize import paste_roi
 
 SIGNALS = ('coverage', 'edge_coverage', 'tip_agreement')
-# Cells across the image width of :func:`splat_iou`: 4 px cells at 320 px.
+# Cells across the image width of :class:`CoarseMasks`: 4 px cells at 320 px.
 SPLAT_CELLS = 80
 
 
@@ -161,7 +161,7 @@ class CoarseMasks:
 
     def iou(self, vertices_m: FloatArray) -> float:
         """Mean IoU over the cameras of the splat of ``vertices_m`` (V, 3) (m) and the
-        observed mask (0 where neither has a cell)."""
+        observed mask; a camera where neither has a cell is left out (0 when all are)."""
         ious = []
         for camera, cell, data, (rows, cols) in zip(self._cameras, self._cell, self._data,
                                                     self._shape):
