@@ -61,7 +61,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from hand_tracker_msgs.msg import SalientPoints
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 from hand_tracker_ros import topics
@@ -78,7 +78,12 @@ from hand_tracker_ros.pipeline.live import LivePipeline
 from hand_tracker_ros.pipeline.warmup import warm_up
 from hand_tracker_ros.ros_io import outputs
 from hand_tracker_ros.ros_io.estimates import EstimateEncoder
-from hand_tracker_ros.ros_io.images import image_msg, intrinsics_from_info
+from hand_tracker_ros.ros_io.images import (
+    image_input,
+    image_msg,
+    intrinsics_from_info,
+    sensor_qos,
+)
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.message_kit import RclpyKit, message_class
 from hand_tracker_ros.ros_io.observations import (
@@ -203,14 +208,11 @@ class TrackerNode(Node):
 
     def _create_inputs(self) -> None:
         cfg = self.config
-        sensor = QoSProfile(depth=cfg.queue_depth,
-                            reliability=qos_profile_sensor_data.reliability,
-                            history=qos_profile_sensor_data.history)
+        sensor = sensor_qos(cfg.queue_depth)
+        image_type, image_topic = image_input(cfg.image_transport, cfg.image_topic)
         for cam in cfg.cameras:
             if cfg.inputs == 'images':
-                kind, suffix = ((Image, '') if cfg.image_transport == 'raw'
-                                else (CompressedImage, '/compressed'))
-                self.create_subscription(kind, f'{cam}/{cfg.image_topic}{suffix}',
+                self.create_subscription(image_type, f'{cam}/{image_topic}',
                                          partial(self._on_image, cam), sensor)
             else:
                 for part in PARTS:

@@ -22,7 +22,7 @@ from hand_tracker_ros.bags.convert import stamp_ns_of
 from hand_tracker_ros.bags.image_codec import image_from_msg
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.pipeline.live import NewestSetWorker
-from hand_tracker_ros.ros_io.images import intrinsics_from_info, sensor_qos
+from hand_tracker_ros.ros_io.images import image_input, intrinsics_from_info, sensor_qos
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
 
 
@@ -89,10 +89,10 @@ class ImageInputs:
         self._worker: NewestSetWorker[SyncedSet] = NewestSetWorker(
             self._decode_set, self._on_error, f'{node.get_name()}-sets')
         qos = sensor_qos(depth)
-        msg_type, suffix = (Image, '') if transport == 'raw' else (CompressedImage, '/compressed')
+        msg_type, topic = image_input(transport, image_topic)
         for cam in self._cameras:
-            node.create_subscription(msg_type, f'{cam}/{image_topic}{suffix}',
-                                     partial(self._on_image, cam), qos)
+            node.create_subscription(msg_type, f'{cam}/{topic}', partial(self._on_image, cam),
+                                     qos)
             node.create_subscription(CameraInfo, f'{cam}/camera_info',
                                      partial(self._on_info, cam), qos)
 

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 from hand_tracker_msgs.msg import SalientPoint, SalientPoints
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import Header
 
 from hand_tracker_ros._typing import FloatArray
@@ -68,6 +68,15 @@ def detections_from_msg(msg: SalientPoints) -> SalientDetections:
     uv = np.array([(p.u, p.v) for p in msg.points], np.float64)
     score = np.array([p.score for p in msg.points], np.float64)
     return SalientDetections(uv, score)
+
+
+def image_input(transport: str, image_topic: str) -> tuple[type, str]:
+    """The message type and the topic (relative to a camera namespace) of a camera's images:
+    ``sensor_msgs/Image`` on ``image_topic`` for ``raw``, ``sensor_msgs/CompressedImage`` on
+    ``<image_topic>/compressed`` for ``compressed`` (image_transport's naming)."""
+    if transport == 'raw':
+        return Image, image_topic
+    return CompressedImage, f'{image_topic}/compressed'
 
 
 def sensor_qos(depth: int) -> QoSProfile:
