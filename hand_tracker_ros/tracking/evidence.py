@@ -154,40 +154,33 @@ class CoarseMasks:
                  cells: int = SPLAT_CELLS) -> None:
         self._cameras = tuple(cameras)
         self._cell = [max(1, int(c.width) // cells) for c in self._cameras]
-        self._data = [_coarse(_full_mask(obs.features), cell).ravel()
+        # Per camera, (rows, cols) bool: the cells with observed foreground.
+        self._data = [_coarse(_full_mask(obs.features), cell)
                       for obs, cell in zip(observations.cameras, self._cell)]
-        self._shape = [_coarse_shape(obs.features.image_size_px, cell)
-                       for obs, cell in zip(observations.cameras, self._cell)]
 
     def iou(self, vertices_m: FloatArray) -> float:
         """Mean IoU over the cameras of the splat of ``vertices_m`` (V, 3) (m) and the
         observed mask; a camera where neither has a cell is left out (0 when all are)."""
         ious = []
-        for camera, cell, data, (rows, cols) in zip(self._cameras, self._cell, self._data,
-                                                    self._shape):
+        for camera, cell, data in zip(self._cameras, self._cell, self._data):
+            rows, cols = data.shape
             uv, _ = camera.project(vertices_m)
             ij = np.floor(uv / cell)             # NaN (behind the camera) fails every test
             ok = (ij[:, 0] >= 0) & (ij[:, 0] < cols) & (ij[:, 1] >= 0) & (ij[:, 1] < rows)
-            model = np.zeros(rows * cols, bool)
-            model[(ij[ok, 1] * cols + ij[ok, 0]).astype(np.intp)] = True
+            model = np.zeros((rows, cols), bool)
+            model[ij[ok, 1].astype(np.intp), ij[ok, 0].astype(np.intp)] = True
             union = np.count_nonzero(model | data)
             if union:
                 ious.append(np.count_nonzero(model & data) / union)
         return float(np.mean(ious)) if ious else 0.0
 
 
-def _coarse_shape(size_px: tuple[int, int], cell: int) -> tuple[int, int]:
-    """Rows and columns of the coarse grid of a ``(width, height)`` image."""
-    width, height = size_px
-    return -(-int(height) // cell), -(-int(width) // cell)
-
-
 def _coarse(mask: BoolArray, cell: int) -> BoolArray:
     """(H, W) -> (ceil(H / cell), ceil(W / cell)): a cell is set when any of its pixels is."""
-    rows, cols = _coarse_shape((mask.shape[1], mask.shape[0]), cell)
+    rows, cols = -(-mask.shape[0] // cell), -(-mask.shape[1] // cell)
     padded = np.zeros((rows * cell, cols * cell), bool)
     padded[:mask.shape[0], :mask.shape[1]] = mask
-    return padded.reshape(rows, cell, cols, cell).any(axis=(1, 3))
+    return np.asarray(padded.reshape(rows, cell, cols, cell).any(axis=(1, 3)))
 
 
 def confidence(evidence: Mapping[str, float], config: EvidenceConfig) -> float:
