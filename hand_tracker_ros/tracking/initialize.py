@@ -4,9 +4,9 @@
 2. **How oriented**: hypotheses of the relaxed hand centred there, rotated over a grid of
    roll (about the finger axis) and pitch angles, are ranked by the mean silhouette IoU of
    the model with the observed masks, on a coarse grid with the model's vertices splatted
-   (:class:`.evidence.CoarseMasks`; rendering the 48 hypotheses took 140 ms at 4 x 320x240
-   and 260 ms at 4 x 640x480, the splat 32-34 ms, with rankings of Spearman correlation
-   0.97-0.98).
+   (:class:`.evidence.CoarseMasks`; ``bench/bench_ranking.py``: rendering the 48
+   hypotheses took 140-170 ms at 4 x 320x240 and 250-265 ms at 4 x 640x480, the splat 35-48
+   ms, with rankings of Spearman correlation 0.97-0.98).
 3. **Refine**: the ``keep`` best hypotheses get ``quick_passes`` short fits (one round,
    :data:`.schedule.QUICK`) and are ranked by the caller's ``score`` (the tracking session
    passes its confidence, :mod:`.evidence`; the default is the silhouette IoU); the
