@@ -111,9 +111,8 @@ class Acquisition:
         """Short fits of untried hypotheses, centred at ``centre``, while the next one ends
         before ``until_s`` (``time.monotonic``; at least one), leaving a full fit's time when
         ``reserve_full``; the most confident with its score. Before a full fit was timed it
-        is reckoned at one short fit per scheduled round. Reserving nothing for it, the
-        first set of a search (random motion, seed 0, offline) took 300 ms of its 120 ms;
-        with the reserve and the splat ranking, 135 ms."""
+        is reckoned at one short fit per scheduled round; reserving nothing for it, the
+        first set of a search explored for the whole budget and ran its full fit on top."""
         best: tuple[float, Fit] | None = None
         while self._pending:
             t0 = time.monotonic()
