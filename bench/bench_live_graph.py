@@ -1,9 +1,10 @@
 """The live graph in real time: composed and distributed, at three rig sizes.
 
 Usage: python bench/bench_live_graph.py [--frames 150] [--rate 1.0] [--seed 5]
-       [--configs 4x320x240 4x640x480 8x320x240] [--modes composed distributed]
+       [--motion random] [--configs 4x320x240 4x640x480 8x320x240]
+       [--modes composed distributed]
 
-For each rig size a synthetic bag of random hand motion (``--seed``) is played through the
+For each rig size a synthetic bag of hand motion (``--motion``, ``--seed``) is played through the
 graph (``hand-tracker replay-eval``'s :func:`~hand_tracker_ros.evaluation.replay.replay`,
 started at the ground-truth first pose, 30 Hz input) in each mode, and one table row is
 printed: estimates per second (HandState messages per second of playback), the share of the
@@ -25,6 +26,7 @@ import numpy as np
 
 from hand_tracker_ros.evaluation.replay import replay
 from hand_tracker_ros.launcher import TRACKING_PROCESSES
+from hand_tracker_ros.synthetic.motions import ALL_MOTIONS
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.synthetic.writer import write_sequence
 
@@ -90,6 +92,9 @@ def main() -> None:
     parser.add_argument('--frames', type=int, default=150)
     parser.add_argument('--rate', type=float, default=1.0)
     parser.add_argument('--seed', type=int, default=5)
+    parser.add_argument('--motion', default='random', choices=ALL_MOTIONS,
+                        help='a smooth one (grasp) keeps the tracker on the hand, so that the '
+                             'rows compare the graph rather than where the hand was lost')
     parser.add_argument('--configs', nargs='+', default=['4x320x240', '4x640x480', '8x320x240'])
     parser.add_argument('--modes', nargs='+', default=['composed', 'distributed'])
     args = parser.parse_args()
@@ -100,7 +105,7 @@ def main() -> None:
         cams, width, height = (int(v) for v in config.split('x'))
         with tempfile.TemporaryDirectory() as tmp:
             bag = write_sequence(SyntheticSequence(SynthConfig(
-                motion='random', n_frames=args.frames, n_cameras=cams, width=width,
+                motion=args.motion, n_frames=args.frames, n_cameras=cams, width=width,
                 height=height, seed=args.seed)), Path(tmp) / 'synthetic')
             for mode in args.modes:
                 sampler = Sampler((*TRACKING_PROCESSES[mode], 'player', 'recorder'))

@@ -101,12 +101,15 @@ class TrackerNodeConfig:
     max_pending_frames: int = param(8, 'incomplete frames kept per camera (oldest dropped)',
                                     low=1, high=1000)
     initial_pose: tuple[float, ...] = param(NEUTRAL_POSE, 'start pose, 26 numbers in '
-                                            'JointState order (m, rad); also used to '
-                                            're-initialize after session.failure.'
-                                            'reinit_after lost frames')
-    initialization: str = param('observations', 'first pose and recovery: search the hand in '
-                                'the observations, or use initial_pose',
+                                            'JointState order (m, rad), with '
+                                            'initialization: initial_pose')
+    initialization: str = param('observations', 'first pose: search the hand in the '
+                                'observations, or use initial_pose',
                                 choices=('observations', 'initial_pose'))
+    restart_at_initial_pose: bool = param(False, 'after session.failure.reinit_after lost '
+                                          'frames, reset to initial_pose (a user who shows '
+                                          'that pose to restart) instead of searching the '
+                                          'observations')
     session: SessionConfig = nested(SessionConfig)
     publish_mesh: bool = param(False, 'add the model mesh (TRIANGLE_LIST) to `hand/markers`')
     publish_tf: bool = param(True, 'publish /tf: every URDF joint of the hand at the estimate '

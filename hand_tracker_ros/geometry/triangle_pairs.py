@@ -46,17 +46,18 @@ from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.errors import ShapeError
 
 # Every kernel below is compiled with cache=True: compile once (about 20 s for all of them)
-# and reuse the machine code from the on-disk cache in later processes.
+# and reuse the machine code from the on-disk cache in later processes; nogil=True lets the
+# threads that share the live tracker's process run meanwhile.
 # Plane-side tolerance relative to the longest edge of the two triangles.
 _REL_EPS = 1e-10
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _orient2(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _segments_cross_2d(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray,
                        i0: int, i1: int) -> bool:
     """Closed segments ``pq`` and ``rs`` meet in the (i0, i1) projection."""
@@ -73,7 +74,7 @@ def _segments_cross_2d(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarra
     return True
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _point_in_tri_2d(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
                      i0: int, i1: int) -> bool:
     d0 = _orient2(a[i0], a[i1], b[i0], b[i1], p[i0], p[i1])
@@ -82,7 +83,7 @@ def _point_in_tri_2d(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
     return (d0 >= 0.0 and d1 >= 0.0 and d2 >= 0.0) or (d0 <= 0.0 and d1 <= 0.0 and d2 <= 0.0)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _coplanar_intersect(v: np.ndarray, u: np.ndarray, normal: np.ndarray) -> bool:
     """Coplanar triangles ``v`` and ``u`` (3, 3): 2D test on the plane closest to theirs."""
     a = np.abs(normal)
@@ -100,7 +101,7 @@ def _coplanar_intersect(v: np.ndarray, u: np.ndarray, normal: np.ndarray) -> boo
             or _point_in_tri_2d(u[0], v[0], v[1], v[2], i0, i1))
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _plane_distances(tri: np.ndarray, other: np.ndarray, eps: float
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Unit normal of ``tri`` and signed distances of ``other``'s vertices to its plane."""
@@ -116,7 +117,7 @@ def _plane_distances(tri: np.ndarray, other: np.ndarray, eps: float
     return normal, dist
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _interval(proj: np.ndarray, dist: np.ndarray) -> tuple[float, float]:
     """Interval a triangle cuts on the planes' line (projections ``proj``, distances ``dist``).
 
@@ -143,7 +144,7 @@ def _interval(proj: np.ndarray, dist: np.ndarray) -> tuple[float, float]:
     return min(t[0], t[1]), max(t[0], t[1])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _tri_tri_intersect(v: np.ndarray, u: np.ndarray) -> bool:
     """Moeller's interval test for closed triangles ``v`` and ``u`` (3, 3)."""
     scale = 0.0
@@ -169,7 +170,7 @@ def _tri_tri_intersect(v: np.ndarray, u: np.ndarray) -> bool:
     return not (hi1 < lo2 or hi2 < lo1)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _share_vertex(fa: np.ndarray, fb: np.ndarray) -> bool:
     for i in range(3):
         for j in range(3):
@@ -178,7 +179,7 @@ def _share_vertex(fa: np.ndarray, fb: np.ndarray) -> bool:
     return False
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _overlap(lo: np.ndarray, hi: np.ndarray, f: int, g: int) -> bool:
     for k in range(3):
         if lo[f, k] > hi[g, k] or lo[g, k] > hi[f, k]:
@@ -186,7 +187,7 @@ def _overlap(lo: np.ndarray, hi: np.ndarray, f: int, g: int) -> bool:
     return True
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _in_box(lo: np.ndarray, hi: np.ndarray, f: int, blo: np.ndarray, bhi: np.ndarray) -> bool:
     for k in range(3):
         if lo[f, k] > bhi[k] or hi[f, k] < blo[k]:
@@ -194,7 +195,7 @@ def _in_box(lo: np.ndarray, hi: np.ndarray, f: int, blo: np.ndarray, bhi: np.nda
     return True
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _sweep_part_pair(verts: np.ndarray, faces: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                      ids: np.ndarray, side: np.ndarray, axis: int,
                      out: np.ndarray, n_out: int) -> tuple[np.ndarray, int]:
@@ -223,7 +224,7 @@ def _sweep_part_pair(verts: np.ndarray, faces: np.ndarray, lo: np.ndarray, hi: n
     return out, n_out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _pairs_kernel(verts: np.ndarray, faces: np.ndarray, order: np.ndarray, start: np.ndarray,
                   blocked: np.ndarray) -> np.ndarray:
     n_faces, n_parts = faces.shape[0], start.size - 1
@@ -326,7 +327,7 @@ def intersecting_pairs(vertices_m: FloatArray, faces: Int32Array, face_part: Int
                          start.astype(np.int64), _blocked(adjacent_parts))
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _winding_kernel(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     # Scalar arithmetic on purpose: small temporary arrays would dominate the inner loop.
     out = np.zeros(points.shape[0])

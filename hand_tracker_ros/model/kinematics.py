@@ -82,7 +82,7 @@ class FKResult:
     pivots: FloatArray
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _rot(axis, angle):  # pragma: no cover - compiled
     """Rotation (3, 3) by ``angle`` about the coordinate axis 0 (x), 1 (y) or 2 (z)."""
     c, s = math.cos(angle), math.sin(angle)
@@ -93,7 +93,7 @@ def _rot(axis, angle):  # pragma: no cover - compiled
     return r
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _fk(theta, rest_rot, base_m, lengths_m, n_bones, finger_dof0, finger_bones, ry, rz,
         rx):  # pragma: no cover - compiled
     """Bone transforms (B, 4, 4), hinge axes (P, 3) and pivots (P, 3); see the module docstring.

@@ -14,7 +14,8 @@ Each ``y_vb = A_b x_v`` moves rigidly with bone ``b``, so by the hinge rule of
 using that the weights sum to 1. The kernels loop over the (at most 4) influences of each
 vertex and the (at most 7) revolute DOF that move that bone, which is far cheaper than the
 dense ``(V, B) x (B, P)`` form. They are numba-compiled with ``cache=True`` so the compile
-cost (about a second) is paid once per machine, not at every process start.
+cost (about a second) is paid once per machine, not at every process start, and ``nogil``:
+the live tracker's fit shares its process with the feature and detector threads.
 """
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray, Int32Array, IntArray
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _skin(transforms, rest, bones, weights):  # pragma: no cover - compiled
     n_v, n_i = bones.shape
     out = np.zeros((n_v, 3))
@@ -40,7 +41,7 @@ def _skin(transforms, rest, bones, weights):  # pragma: no cover - compiled
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _skin_jacobian(transforms, rest, bones, weights, bone_dofs, axes, pivots, n_p,
                    rows):  # pragma: no cover - compiled
     n_v, n_i = bones.shape
@@ -70,7 +71,7 @@ def _skin_jacobian(transforms, rest, bones, weights, bone_dofs, axes, pivots, n_
     return out, jac
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _normals(verts, faces):  # pragma: no cover - compiled
     normals = np.zeros_like(verts)
     for f in range(faces.shape[0]):

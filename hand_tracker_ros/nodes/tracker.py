@@ -36,11 +36,12 @@ spread over the sets (:mod:`hand_tracker_ros.tracking.acquisition`), LOST until 
 
 Tracking policy: the node drives a :class:`hand_tracker_ros.tracking.session.TrackingSession`,
 the same one the offline pipeline uses (start, recovery, LOST, confidence; ``session.*``).
-``initialization``: ``observations`` (default) searches the hand in the first complete set and
-again after ``session.failure.reinit_after`` consecutive LOST frames; ``initial_pose`` starts
-at, and resets to, that pose. The camera intrinsics and extrinsics come from
-``rig_file``; a camera_info whose size contradicts the rig drops that camera's frames with
-a throttled error; a missing camera_info is only reported (the rig is used; the policy is
+``initialization``: ``observations`` (default) searches the hand in the first complete set,
+``initial_pose`` starts at that pose; after ``session.failure.reinit_after`` consecutive LOST
+frames the node searches again, or with ``restart_at_initial_pose`` resets to the pose. The
+camera intrinsics and extrinsics come from ``rig_file``; a camera_info whose size
+contradicts the rig drops that camera's frames with a throttled error; a missing camera_info
+is only reported (the rig is used; the policy is
 :class:`hand_tracker_ros.sync.input_health.InputHealth`). Without a ``rig_file`` the node
 refuses to start and says so. The hand's size comes from ``shape_file`` (the default hand
 when empty); HandState's ``shape_parameters``, the URDF, TF and the markers follow it.
@@ -150,9 +151,11 @@ class TrackerNode(Node):
         self._model = HandModel.build(shape)
         initial = (np.asarray(self.config.initial_pose, np.float64)
                    if self.config.initialization == 'initial_pose' else None)
+        resets = initial is not None and self.config.restart_at_initial_pose
+        self._restart_from = 'initial_pose' if resets else 'observations'
         self._tracker = HandTracker(self._model, self.working_cameras, self.config.tracking)
         self._session = TrackingSession(self._tracker, self.config.session,
-                                        initial_pose=initial)
+                                        initial_pose=initial, search=not resets)
         self._init_state()
         self._create_outputs()
         if self.config.inputs == 'features':
@@ -339,8 +342,7 @@ class TrackerNode(Node):
         latency_s = (self.get_clock().now().nanoseconds - synced.stamp_ns) / 1e9
         restarted = self._session.restarts - restarts
         if restarted:
-            self.get_logger().warning(f'hand lost: re-initializing from '
-                                      f'{self.config.initialization}')
+            self.get_logger().warning(f'hand lost: re-initializing from {self._restart_from}')
         elif result.status != TrackStatus.TRACKING:
             self._log_throttled('lost', 'warning', f'hand lost (confidence '
                                 f'{result.confidence:.2f}, {self._session.lost_frames} frames '

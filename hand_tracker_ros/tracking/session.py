@@ -6,7 +6,11 @@ tracked offline and the same bag played through the graph follow the same rules:
 1. **Start.** Without a history the session finds the hand: from ``initial_pose`` when one is
    given, otherwise by the global search over the observations (:mod:`.initialize`). A set
    with a deadline (the live tracker) gets a slice of the search instead, which goes on over
-   the following sets, LOST until it finds the hand (:mod:`.acquisition`).
+   the following sets, LOST until it finds the hand (:mod:`.acquisition`). The initial pose
+   holds for the start only: once the hand has moved on, a restart from it lands where the
+   hand was (played from the ground truth's first pose, a lost tracker re-initialised there
+   was LOST for the rest of the bag), so restarts search (step 5) unless the session may not
+   search.
 2. **Track.** The frame is fitted from the constant-velocity prediction of the last two
    accepted estimates, scaled by the time since them (sets a live tracker skipped count;
    :mod:`.hypotheses`; ``predict``), or from the last estimate.
@@ -18,8 +22,9 @@ tracked offline and the same bag played through the graph follow the same rules:
    :func:`.hypotheses.finger_hypotheses`); the most confident of them gets the full schedule
    and replaces the fit if it is more confident. This costs time only on doubtful frames.
 5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
-   ``failure.lost_below``: the initialisation runs again on the current frame (with a
-   deadline: the live search starts from the last fit, on the next set).
+   ``failure.lost_below``: the search runs on the current frame (with a deadline: the live
+   search starts from the last fit, on the next set); a session that may not search resets
+   to ``initial_pose`` instead (a user who shows that pose to restart).
 6. **Report.** The frame is TRACKING when the kept fit's confidence is at least
    ``failure.lost_below``, LOST otherwise. The kept fit is the next frame's start either way
    (a LOST frame can still be the best guess there is), and the last TRACKING estimate stays a
@@ -89,9 +94,10 @@ class _Judged:
 class TrackingSession:
     """Tracks one hand through a sequence of frame sets with :class:`HandTracker`.
 
-    ``initial_pose`` (P,) replaces the global search at the start and after losses. With
-    ``search=False`` the session never searches: the caller resets it (the evaluation's
-    ground-truth protocol) and :attr:`lost_frames` says when.
+    ``initial_pose`` (P,) replaces the global search at the start; after losses the session
+    searches. With ``search=False`` it never searches: it resets to ``initial_pose`` after
+    losses, or without one the caller resets it (the evaluation's ground-truth protocol) and
+    :attr:`lost_frames` says when.
     """
 
     def __init__(self, tracker: HandTracker, config: SessionConfig = SessionConfig(), *,
@@ -145,13 +151,13 @@ class TrackingSession:
         """
         start = time.perf_counter()
         timings: dict[str, float] = {}
-        if (not self.tracker.initialized and self._searches_live(deadline_s)
+        if (not self.tracker.initialized and self._searches_live(deadline_s, restart=False)
                 and self._acquisition is None):
             self._acquisition = self._new_acquisition(None)
         if self._acquisition is not None:
             return self._acquire(observations, timings, start)
         if not self.tracker.initialized:
-            self._start(observations, timings)
+            self._start(observations, timings, restart=False)
         start_theta = self._prediction(observations.stamp_ns)
         judged = self._judge('previous', self._fit(observations, start_theta, timings,
                                                    deadline_s), observations)
@@ -173,14 +179,14 @@ class TrackingSession:
             timings['recovery'] = time.perf_counter() - t0
         searched_now = (judged.confidence < failure.lost_below and self._can_start
                         and self._lost + 1 >= failure.reinit_after)
-        if searched_now and self._searches_live(deadline_s):
+        if searched_now and self._searches_live(deadline_s, restart=True):
             # Live: the search starts on the next set, from this fit, a slice per set.
             self._acquisition = self._new_acquisition(judged.fit.theta)
             self.restarts += 1
             searched_now = False
         if searched_now:
             t0 = time.perf_counter()
-            self._start(observations, timings)
+            self._start(observations, timings, restart=True)
             self.restarts += 1
             searched = self._judge('search', self._fit(observations, None, timings),
                                    observations)
@@ -203,10 +209,15 @@ class TrackingSession:
                            fit.labels, '' if judged.name == 'previous' else judged.name,
                            lm_statuses=fit.lm_statuses)
 
-    def _searches_live(self, deadline_s: float | None) -> bool:
+    def _searches(self, restart: bool) -> bool:
+        """Whether a start (``restart``: after losses) searches rather than resets to
+        ``initial_pose`` (module docstring, steps 1 and 5)."""
+        return self._search and (restart or self._initial is None)
+
+    def _searches_live(self, deadline_s: float | None, restart: bool) -> bool:
         """Whether a start is the search spread over the sets: a live frame (with a
-        deadline) of a session that searches rather than resets to ``initial_pose``."""
-        return deadline_s is not None and self._initial is None and self._search
+        deadline) of a start that searches."""
+        return deadline_s is not None and self._searches(restart)
 
     def _new_acquisition(self, start: FloatArray | None) -> Acquisition:
         return Acquisition(self.tracker, self.config.init, self.config.acquisition,
@@ -230,14 +241,15 @@ class TrackingSession:
     def _can_start(self) -> bool:
         return self._initial is not None or self._search
 
-    def _start(self, observations: FrameObservations, timings: dict[str, float]) -> None:
-        """Reset the tracker to ``initial_pose`` or to the global search's pose."""
+    def _start(self, observations: FrameObservations, timings: dict[str, float],
+               restart: bool) -> None:
+        """Reset the tracker to the global search's pose or to ``initial_pose``."""
         t0 = time.perf_counter()
-        if self._initial is not None:
-            self.tracker.reset(self._initial)
-        elif self._search:
+        if self._searches(restart):
             initialize(self.tracker, observations, self.config.init,
                        score=lambda fit: self._judge('search', fit, observations).confidence)
+        elif self._initial is not None:
+            self.tracker.reset(self._initial)
         else:
             msg = 'the session is not initialized and may not search: call reset(theta)'
             raise RuntimeError(msg)

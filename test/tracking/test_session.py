@@ -11,6 +11,7 @@ from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
 from hand_tracker_ros.tracking.hypotheses import turned_hypotheses
+from hand_tracker_ros.tracking.session import TrackingSession
 
 
 def _error_mm(result, frame) -> float:
@@ -83,6 +84,29 @@ def test_a_lost_hand_is_reported_lost_then_found_by_the_search(hand_model, scene
     assert results[0].status == TrackStatus.LOST and pipeline.session.restarts == 1
     assert 'search' in results[1].timings_s and results[1].status == TrackStatus.TRACKING
     assert results[2].status == TrackStatus.TRACKING and _error_mm(results[2], frames[3]) < 20.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('search', [True, False])
+def test_the_initial_pose_is_the_start_and_restarts_search_unless_they_may_not(
+        hand_model, scene, search) -> None:
+    sequence, frames = scene
+    pipeline = _pipeline(hand_model, sequence, **{'session.failure.reinit_after': 2})
+    away = frames[0].theta.copy()
+    away[:3] += (0.15, 0.0, 0.1)          # where the hand was once, not where it is now
+    pipeline.session = TrackingSession(pipeline.tracker, pipeline.config.session,
+                                       initial_pose=away, search=search)
+    results = [pipeline.step(FrameSet(f.stamp_ns, f.images)) for f in frames[1:4]]
+    pipeline.close()
+    assert 'initialize' in results[0].timings_s and 'search' not in results[0].timings_s
+    assert results[0].status == TrackStatus.LOST
+    if search:
+        assert 'search' in results[1].timings_s and results[1].status == TrackStatus.TRACKING
+        assert _error_mm(results[2], frames[3]) < 20.0
+        assert pipeline.session.restarts == 1
+    else:      # reset to the initial pose again on every later frame: nowhere near the hand
+        assert [r.status for r in results] == [TrackStatus.LOST] * 3
+        assert pipeline.session.restarts == 2
 
 
 def test_a_session_that_may_not_search_must_be_reset(hand_model, scene) -> None:
