@@ -6,7 +6,7 @@ next set is taken (played at real time, the tracker found the hand in 7 of 150 s
 realtime demo). Here each set gets a slice of the search, ``step_budget_ms`` of wall time,
 and the best fit so far follows the hand from set to set:
 
-1. On the first set, the hand is located (the visual hull, :func:`.initialize.locate_hand`)
+1. On the first set, the hand is located (the visual hull, :class:`.initialize.VisualHull`)
    and the relaxed-hand hypotheses are ranked by silhouette IoU, as in the one-shot search
    (:func:`.initialize.ranked_hypotheses`).
 2. On the first set, the best hypotheses get short fits (:data:`.schedule.QUICK`) until the
@@ -50,7 +50,7 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.tracking.initialize import InitConfig, locate_hand, ranked_hypotheses
+from hand_tracker_ros.tracking.initialize import InitConfig, VisualHull, ranked_hypotheses
 from hand_tracker_ros.tracking.schedule import QUICK, rounds
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
@@ -87,6 +87,7 @@ class Acquisition:
         self._start = None if start is None else np.asarray(start, np.float64).copy()
         self._full_s = 0.0       # duration of the last full fit, s (0: none yet)
         self._rounds = len(rounds(tracker.config.schedule))
+        self._hull = VisualHull(tracker.cameras)     # the hand is located on every set
 
     def step(self, observations: FrameObservations) -> Fit:
         """Search on one set for about ``step_budget_ms``; the set's full fit.
@@ -95,9 +96,8 @@ class Acquisition:
         see foreground).
         """
         deadline_s = time.monotonic() + self._config.step_budget_ms / 1e3
-        centre = locate_hand(self._tracker.cameras, [c.features.mask
-                                                      for c in observations.cameras],
-                             self._init.min_mask_px)
+        centre = self._hull.centre([c.features.mask for c in observations.cameras],
+                                   self._init.min_mask_px)
         if self._carried is None and self._start is not None:
             self._carried = _Candidate(self._start, centre)
         if not self._pending:

@@ -1,6 +1,6 @@
 """Find the hand from the observations alone: first frame and recovery after divergence.
 
-1. **Where**: the centre of the visual hull of the foreground masks (:func:`locate_hand`).
+1. **Where**: the centre of the visual hull of the foreground masks (:class:`VisualHull`).
 2. **How oriented**: hypotheses of the relaxed hand centred there, rotated over a grid of
    roll (about the finger axis) and pitch angles, are ranked by the mean silhouette IoU of
    the model with the observed masks, on a coarse grid with the model's vertices splatted
@@ -68,9 +68,8 @@ def _view_centre(cameras: Sequence[Camera]) -> tuple[FloatArray, float]:
     return centre, float(np.median([np.linalg.norm(c.center_world - centre) for c in cameras]))
 
 
-def locate_hand(cameras: Sequence[Camera], masks: Sequence[np.ndarray],
-                min_px: int, voxel_m: float = 0.01) -> FloatArray:
-    """Centre (m), shape (3,), of the largest region every camera sees as foreground.
+class VisualHull:
+    """Where the hand is: the centre (m) of the largest region every camera sees as foreground.
 
     A voxel grid (``voxel_m``) around the point the cameras look at, half as wide as their
     median distance to it, is carved: a voxel stays when it projects onto foreground in every
@@ -78,32 +77,68 @@ def locate_hand(cameras: Sequence[Camera], masks: Sequence[np.ndarray],
     the largest connected part of what stays is the hand centre. Skin-coloured clutter in one
     camera does not survive the others, unlike the mask centroids, which it pulls away (on
     random-motion frames with the default clutter the centroids missed the hand by 20-55 mm).
+
+    The grid's pixels in each camera are kept per set of cameras with a foreground region
+    (and mask sizes): the cameras do not move, and projecting the grid (about 230k voxels,
+    with distortion, into each camera) was most of the 15 ms that locating the hand took on
+    every set of a live search at 4 x 320x240; with them kept it is a lookup per camera.
     """
-    used = [(c, m) for c, m in zip(cameras, masks) if np.count_nonzero(m) >= min_px]
-    if len(used) < 2:
-        msg = f'cannot place the hand: only {len(used)} camera(s) see a foreground region'
-        raise HandTrackerError(msg)
-    centre, distance = _view_centre([c for c, _ in used])
-    n = max(1, int(round(0.5 * distance / voxel_m)))
-    axis = np.arange(-n, n + 1) * voxel_m
-    grid = np.stack(np.meshgrid(axis, axis, axis, indexing='ij'), axis=-1).reshape(-1, 3) + centre
-    seen = np.zeros(len(grid), np.int32)
-    foreground = np.zeros(len(grid), np.int32)
-    for camera, mask in used:
-        uv, depth = camera.project(grid)
-        inside = (depth > 0) & np.all(np.isfinite(uv), axis=1)
-        col = np.rint(np.nan_to_num(uv[:, 0], nan=-1.0)).astype(np.intp)
-        row = np.rint(np.nan_to_num(uv[:, 1], nan=-1.0)).astype(np.intp)
-        inside &= (col >= 0) & (col < mask.shape[1]) & (row >= 0) & (row < mask.shape[0])
-        seen += inside
-        foreground[inside] += mask[row[inside], col[inside]]
-    hull = ((seen == len(used)) & (foreground == seen)).reshape((2 * n + 1,) * 3)
-    labels, count = scipy.ndimage.label(hull)
-    if count == 0:
-        msg = 'cannot place the hand: the cameras\' foreground regions do not intersect'
-        raise HandTrackerError(msg)
-    largest = 1 + int(np.argmax(scipy.ndimage.sum_labels(hull, labels, range(1, count + 1))))
-    return grid[(labels == largest).ravel()].mean(axis=0)
+
+    def __init__(self, cameras: Sequence[Camera], voxel_m: float = 0.01) -> None:
+        self.cameras = tuple(cameras)
+        self.voxel_m = voxel_m
+        # (camera indices, mask shapes) -> grid (N, 3) m, and per camera the flat pixel of
+        # every voxel (N,) int64, one past the image where the voxel does not project into it.
+        self._grids: dict[tuple[tuple[int, ...], tuple[tuple[int, ...], ...]],
+                          tuple[FloatArray, int, list[np.ndarray]]] = {}
+
+    def centre(self, masks: Sequence[np.ndarray], min_px: int) -> FloatArray:
+        """The hand centre (3,) m from one (H, W) bool mask per camera; masks with fewer than
+        ``min_px`` foreground pixels are left out. Raises ``HandTrackerError`` when fewer than
+        two cameras see foreground or their regions do not intersect."""
+        used = tuple(i for i, m in enumerate(masks) if np.count_nonzero(m) >= min_px)
+        if len(used) < 2:
+            msg = f'cannot place the hand: only {len(used)} camera(s) see a foreground region'
+            raise HandTrackerError(msg)
+        grid, n, pixels = self._grid(used, tuple(np.shape(masks[i]) for i in used))
+        hull = np.ones(len(grid), bool)
+        for i, flat in zip(used, pixels):
+            hull &= np.append(np.ravel(masks[i]), False)[flat]
+        hull = hull.reshape((2 * n + 1,) * 3)
+        labels, count = scipy.ndimage.label(hull)
+        if count == 0:
+            msg = 'cannot place the hand: the cameras\' foreground regions do not intersect'
+            raise HandTrackerError(msg)
+        largest = 1 + int(np.argmax(scipy.ndimage.sum_labels(hull, labels, range(1, count + 1))))
+        return grid[(labels == largest).ravel()].mean(axis=0)
+
+    def _grid(self, used: tuple[int, ...], shapes: tuple[tuple[int, ...], ...]
+              ) -> tuple[FloatArray, int, list[np.ndarray]]:
+        key = (used, shapes)
+        if key not in self._grids:
+            cameras = [self.cameras[i] for i in used]
+            centre, distance = _view_centre(cameras)
+            n = max(1, int(round(0.5 * distance / self.voxel_m)))
+            axis = np.arange(-n, n + 1) * self.voxel_m
+            grid = (np.stack(np.meshgrid(axis, axis, axis, indexing='ij'), axis=-1)
+                    .reshape(-1, 3) + centre)
+            pixels = []
+            for camera, (height, width) in zip(cameras, shapes):
+                uv, depth = camera.project(grid)
+                inside = (depth > 0) & np.all(np.isfinite(uv), axis=1)
+                col = np.rint(np.nan_to_num(uv[:, 0], nan=-1.0)).astype(np.intp)
+                row = np.rint(np.nan_to_num(uv[:, 1], nan=-1.0)).astype(np.intp)
+                inside &= (col >= 0) & (col < width) & (row >= 0) & (row < height)
+                pixels.append(np.where(inside, row * width + col, height * width))
+            self._grids[key] = (grid, n, pixels)
+        return self._grids[key]
+
+
+def locate_hand(cameras: Sequence[Camera], masks: Sequence[np.ndarray],
+                min_px: int, voxel_m: float = 0.01) -> FloatArray:
+    """Centre (m), shape (3,), of the largest region every camera sees as foreground, once
+    (:class:`VisualHull`, which a caller that locates the hand on every set keeps)."""
+    return VisualHull(cameras, voxel_m).centre(masks, min_px)
 
 
 def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArray]:  # noqa: ANN001

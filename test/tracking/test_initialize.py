@@ -13,6 +13,7 @@ from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.evidence import CoarseMasks, silhouette_iou
 from hand_tracker_ros.tracking.initialize import (
     InitConfig,
+    VisualHull,
     hypotheses,
     locate_hand,
     ranked_hypotheses,
@@ -41,6 +42,18 @@ def test_the_visual_hull_places_a_ball_and_ignores_clutter_in_one_camera() -> No
     apart = [masks[0], _ball_masks(rig, np.array([0.1, 0.1, 0.0]))[1], masks[2]]
     with pytest.raises(HandTrackerError, match='do not intersect'):
         locate_hand(rig.cameras, apart, 10)
+
+
+def test_a_kept_visual_hull_locates_as_a_new_one_whichever_cameras_see_foreground() -> None:
+    rig = CameraRig.ring(4, 160, 120)
+    hull = VisualHull(rig.cameras)
+    for centre, seeing in (((0.02, -0.01, 0.03), (0, 1, 2, 3)), ((-0.03, 0.02, 0.0), (0, 2, 3)),
+                           ((0.0, 0.03, -0.02), (0, 1, 2, 3)), ((0.01, 0.0, 0.01), (1, 3))):
+        masks = [m if c in seeing else m & False
+                 for c, m in enumerate(_ball_masks(rig, np.array(centre)))]
+        found = hull.centre(masks, 10)
+        np.testing.assert_array_equal(found, locate_hand(rig.cameras, masks, 10))
+        np.testing.assert_allclose(found, centre, atol=3e-3)
 
 
 @pytest.mark.slow
