@@ -102,7 +102,8 @@ class TrackerNodeConfig:
                                     low=1, high=1000)
     initial_pose: tuple[float, ...] = param(NEUTRAL_POSE, 'start pose, 26 numbers in '
                                             'JointState order (m, rad), with '
-                                            'initialization: initial_pose')
+                                            'initialization: initial_pose (and the restart '
+                                            'pose with restart_at_initial_pose)')
     initialization: str = param('observations', 'first pose: search the hand in the '
                                 'observations, or use initial_pose',
                                 choices=('observations', 'initial_pose'))

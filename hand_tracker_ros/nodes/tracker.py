@@ -31,8 +31,9 @@ are kept as they are. Camera frames go through our approximate-time synchronizer
 thread and tracks and publishes on another. Skipped sets are counted; the session's
 constant-velocity prediction spans them. ``budget_ms`` (0: the measured period between sets)
 caps each main fit (:meth:`.TrackingSession.step`; 33 ms for the first set); played slowly,
-every set gets every round. With ``initialization: observations`` the search for the hand is
-spread over the sets (:mod:`hand_tracker_ros.tracking.acquisition`), LOST until found.
+every set gets every round. The search for the hand (at the start with ``initialization:
+observations``, and after losses) is spread over the sets
+(:mod:`hand_tracker_ros.tracking.acquisition`), LOST until found.
 
 Tracking policy: the node drives a :class:`hand_tracker_ros.tracking.session.TrackingSession`,
 the same one the offline pipeline uses (start, recovery, LOST, confidence; ``session.*``).
@@ -116,6 +117,9 @@ def _load_rig(config: TrackerNodeConfig) -> CameraRig:
         raise ConfigError(msg)
     if len(config.initial_pose) != P:
         msg = f'`initial_pose` must have {P} numbers, got {len(config.initial_pose)}'
+        raise ConfigError(msg)
+    if config.restart_at_initial_pose and config.initialization != 'initial_pose':
+        msg = '`restart_at_initial_pose` needs `initialization: initial_pose`'
         raise ConfigError(msg)
     return rig
 

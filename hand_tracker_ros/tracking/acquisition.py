@@ -22,7 +22,8 @@ and the best fit so far follows the hand from set to set:
    next set.
 
 The budget is short on purpose: what a set must do (the carried fit's full schedule, one
-short fit) already takes about it, and the hand moves on meanwhile. The simulated live loop
+short fit) already takes more (85-140 ms offline at 4 x 320x240, 150-300 ms in the live
+graph), and the hand moves on meanwhile. The simulated live loop
 (``bench/simulate_live.py --start search``, seeds 901-912, tracked share per seed) gave a
 mean of 62 % at 120 ms (three seeds under 40 %), 67 % at 80, 76 % at 60 (none under 50 %)
 and 76 % at 40 (one at 0 %); the realtime demo (``hand-tracker demo --realtime``, seeds
@@ -34,9 +35,10 @@ most confident short fit: one short fit more per set, and no better in the simul
 loop (``bench/simulate_live.py``, seeds 601-605, whose sets estimated vary by 20-40 points
 from run to run with either).
 
-The session runs this when a set must be fitted by a deadline (the live tracker) and the
-search is the way to start (``initialization: observations``); offline it runs the one-shot
-search, which spends what it needs on one set.
+The session runs this when a set must be fitted by a deadline (the live tracker) and it
+searches: at the start without an initial pose, and after losses unless it may not search
+(:mod:`.session`); offline it runs the one-shot search, which spends what it needs on one
+set.
 """
 from __future__ import annotations
 
@@ -96,8 +98,7 @@ class Acquisition:
         see foreground).
         """
         deadline_s = time.monotonic() + self._config.step_budget_ms / 1e3
-        centre = self._hull.centre([c.features.mask for c in observations.cameras],
-                                   self._init.min_mask_px)
+        centre = self._hull.locate(observations, self._init.min_mask_px)
         if self._carried is None and self._start is not None:
             self._carried = _Candidate(self._start, centre)
         if not self._pending:

@@ -28,7 +28,7 @@ import scipy.ndimage
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.observations import FrameObservations
-from hand_tracker_ros.errors import HandTrackerError
+from hand_tracker_ros.errors import HandTrackerError, ShapeError
 from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.model.poses import RELAXED_DEG, with_joints_deg
@@ -78,44 +78,66 @@ class VisualHull:
     camera does not survive the others, unlike the mask centroids, which it pulls away (on
     random-motion frames with the default clutter the centroids missed the hand by 20-55 mm).
 
-    The grid's pixels in each camera are kept per set of cameras with a foreground region
-    (and mask sizes): the cameras do not move, and projecting the grid (about 230k voxels,
-    with distortion, into each camera) was most of the 15 ms that locating the hand took on
-    every set of a live search at 4 x 320x240; with them kept it is a lookup per camera.
+    The grid's pixel in each camera is kept per set of cameras with a foreground region (at
+    most ``_KEPT`` sets, 4 bytes per voxel and camera): the cameras do not move, and
+    projecting the grid (about 230k voxels, with distortion, into each camera) was most of
+    the 15 ms that locating the hand took on every set of a live search at 4 x 320x240; with
+    them kept it is a lookup per camera.
     """
+
+    _KEPT = 4
 
     def __init__(self, cameras: Sequence[Camera], voxel_m: float = 0.01) -> None:
         self.cameras = tuple(cameras)
         self.voxel_m = voxel_m
-        # (camera indices, mask shapes) -> grid (N, 3) m, and per camera the flat pixel of
-        # every voxel (N,) int64, one past the image where the voxel does not project into it.
-        self._grids: dict[tuple[tuple[int, ...], tuple[tuple[int, ...], ...]],
-                          tuple[FloatArray, int, list[np.ndarray]]] = {}
+        # camera indices -> grid centre (3,) m, half width n (voxels), and per camera the
+        # full-image flat pixel (N,) int32 of every voxel, W * H where it projects outside.
+        self._grids: dict[tuple[int, ...], tuple[FloatArray, int, list[np.ndarray]]] = {}
 
-    def centre(self, masks: Sequence[np.ndarray], min_px: int) -> FloatArray:
-        """The hand centre (3,) m from one (H, W) bool mask per camera; masks with fewer than
-        ``min_px`` foreground pixels are left out. Raises ``HandTrackerError`` when fewer than
-        two cameras see foreground or their regions do not intersect."""
+    def centre(self, masks: Sequence[np.ndarray], min_px: int,
+               rois_px: Sequence[tuple[int, int, int, int]] | None = None) -> FloatArray:
+        """The hand centre (3,) m from one bool mask per camera.
+
+        A mask covers the camera's whole image, or its ``rois_px`` box ``(u0, v0, u1, v1)``
+        (half-open, full-image px; :class:`~hand_tracker_ros.vision.features.CameraFeatures`),
+        outside which nothing counts as foreground. Masks with fewer than ``min_px`` foreground
+        pixels are left out. Raises ``HandTrackerError`` when fewer than two cameras see
+        foreground or their regions do not intersect, ``ShapeError`` for a mask per camera
+        missing or of another size than its box.
+        """
+        if len(masks) != len(self.cameras) or (rois_px is not None
+                                               and len(rois_px) != len(masks)):
+            msg = f'{len(masks)} masks for {len(self.cameras)} cameras'
+            raise ShapeError(msg)
         used = tuple(i for i, m in enumerate(masks) if np.count_nonzero(m) >= min_px)
         if len(used) < 2:
             msg = f'cannot place the hand: only {len(used)} camera(s) see a foreground region'
             raise HandTrackerError(msg)
-        grid, n, pixels = self._grid(used, tuple(np.shape(masks[i]) for i in used))
-        hull = np.ones(len(grid), bool)
+        centre, n, pixels = self._grid(used)
+        hull = np.ones(len(pixels[0]), bool)
         for i, flat in zip(used, pixels):
-            hull &= np.append(np.ravel(masks[i]), False)[flat]
+            camera = self.cameras[i]
+            box = (0, 0, camera.width, camera.height) if rois_px is None else rois_px[i]
+            hull &= _in_mask(np.asarray(masks[i], bool), box, flat, camera.width)
         hull = hull.reshape((2 * n + 1,) * 3)
         labels, count = scipy.ndimage.label(hull)
         if count == 0:
             msg = 'cannot place the hand: the cameras\' foreground regions do not intersect'
             raise HandTrackerError(msg)
         largest = 1 + int(np.argmax(scipy.ndimage.sum_labels(hull, labels, range(1, count + 1))))
-        return grid[(labels == largest).ravel()].mean(axis=0)
+        axis = np.arange(-n, n + 1) * self.voxel_m
+        i, j, k = np.unravel_index(np.flatnonzero(labels == largest), hull.shape)
+        return (np.stack([axis[i], axis[j], axis[k]], axis=-1) + centre).mean(axis=0)
 
-    def _grid(self, used: tuple[int, ...], shapes: tuple[tuple[int, ...], ...]
-              ) -> tuple[FloatArray, int, list[np.ndarray]]:
-        key = (used, shapes)
-        if key not in self._grids:
+    def locate(self, observations: FrameObservations, min_px: int) -> FloatArray:
+        """:meth:`centre` from the observed foreground masks and their regions of interest."""
+        features = [c.features for c in observations.cameras]
+        return self.centre([f.mask for f in features], min_px, [f.roi_px for f in features])
+
+    def _grid(self, used: tuple[int, ...]) -> tuple[FloatArray, int, list[np.ndarray]]:
+        if used not in self._grids:
+            if len(self._grids) >= self._KEPT:
+                del self._grids[next(iter(self._grids))]       # the oldest
             cameras = [self.cameras[i] for i in used]
             centre, distance = _view_centre(cameras)
             n = max(1, int(round(0.5 * distance / self.voxel_m)))
@@ -123,22 +145,34 @@ class VisualHull:
             grid = (np.stack(np.meshgrid(axis, axis, axis, indexing='ij'), axis=-1)
                     .reshape(-1, 3) + centre)
             pixels = []
-            for camera, (height, width) in zip(cameras, shapes):
+            for camera in cameras:
                 uv, depth = camera.project(grid)
                 inside = (depth > 0) & np.all(np.isfinite(uv), axis=1)
                 col = np.rint(np.nan_to_num(uv[:, 0], nan=-1.0)).astype(np.intp)
                 row = np.rint(np.nan_to_num(uv[:, 1], nan=-1.0)).astype(np.intp)
-                inside &= (col >= 0) & (col < width) & (row >= 0) & (row < height)
-                pixels.append(np.where(inside, row * width + col, height * width))
-            self._grids[key] = (grid, n, pixels)
-        return self._grids[key]
+                inside &= ((col >= 0) & (col < camera.width) & (row >= 0)
+                           & (row < camera.height))
+                pixels.append(np.where(inside, row * camera.width + col,
+                                       camera.width * camera.height).astype(np.int32))
+            self._grids[used] = (centre, n, pixels)
+        return self._grids[used]
 
 
-def locate_hand(cameras: Sequence[Camera], masks: Sequence[np.ndarray],
-                min_px: int, voxel_m: float = 0.01) -> FloatArray:
-    """Centre (m), shape (3,), of the largest region every camera sees as foreground, once
-    (:class:`VisualHull`, which a caller that locates the hand on every set keeps)."""
-    return VisualHull(cameras, voxel_m).centre(masks, min_px)
+def _in_mask(mask: np.ndarray, box: tuple[int, int, int, int], flat: np.ndarray,
+             width: int) -> np.ndarray:
+    """Whether each voxel (N,) bool lands on foreground of ``mask`` (h, w), which covers the
+    full-image box ``(u0, v0, u1, v1)``; ``flat`` (N,) int32 are the voxels' full-image flat
+    pixels (``W * H`` outside the image) of an image ``width`` px wide."""
+    u0, v0, u1, v1 = box
+    if mask.shape != (v1 - v0, u1 - u0):
+        msg = f'a {mask.shape[1]}x{mask.shape[0]} mask for the box {box}'
+        raise ShapeError(msg)
+    padded = np.append(mask.ravel(), False)            # the last entry: not foreground
+    if (u0, v0) == (0, 0) and u1 == width:              # the whole image (or its top rows)
+        return padded[np.minimum(flat, mask.size)]
+    row, col = np.divmod(flat, width)
+    inside = (row >= v0) & (row < v1) & (col >= u0) & (col < u1)
+    return padded[np.where(inside, (row - v0) * (u1 - u0) + col - u0, mask.size)]
 
 
 def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArray]:  # noqa: ANN001
@@ -174,8 +208,7 @@ def initialize(tracker: HandTracker, observations: FrameObservations,
 
     ``score`` ranks the refined hypotheses (higher is better); by default the silhouette IoU.
     """
-    masks = [c.features.mask for c in observations.cameras]
-    center = locate_hand(tracker.cameras, masks, config.min_mask_px)
+    center = VisualHull(tracker.cameras).locate(observations, config.min_mask_px)
     ranked = ranked_hypotheses(tracker, observations, center, config)
     if score is None:
         def score(fit: Fit) -> float:

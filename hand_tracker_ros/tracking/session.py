@@ -124,7 +124,8 @@ class TrackingSession:
         return self._lost
 
     def reset(self, theta: FloatArray | None = None) -> None:
-        """Forget everything; start from ``theta``, or search on the next frame."""
+        """Forget everything; start from ``theta``, or on the next frame as at the start
+        (step 1: from ``initial_pose``, or by the search)."""
         self.tracker.reset(theta)
         self._lost = 0
         self._trusted = None if theta is None else np.asarray(theta, np.float64).copy()

@@ -84,6 +84,14 @@ def test_bad_parameter_is_a_clear_startup_error() -> None:
     assert 'sync_slop_ms' in proc.stdout + proc.stderr
 
 
+def test_restarting_at_an_initial_pose_that_is_not_used_is_a_clear_startup_error() -> None:
+    proc = subprocess.run([str(executable('tracker')), '--ros-args', '-p', f'rig_file:={RIG}',
+                           '-p', 'restart_at_initial_pose:=true'],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode != 0
+    assert 'needs `initialization: initial_pose`' in proc.stdout + proc.stderr
+
+
 @pytest.mark.parametrize('level, param_lines', [('info', 0), ('debug', 'all')])
 def test_parameters_are_one_info_line_and_each_at_debug(node_process, level,
                                                         param_lines) -> None:

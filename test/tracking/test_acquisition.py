@@ -12,6 +12,7 @@ from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.schedule import QUICK
+from hand_tracker_ros.tracking.session import TrackingSession
 
 
 @pytest.fixture(scope='module')
@@ -98,3 +99,22 @@ def test_a_live_session_that_loses_the_hand_searches_from_the_next_set(hand_mode
     assert _live_step(session, observations[2]).recovered_from == 'search'
     session.reset(frames[2].theta)
     assert not session.acquiring
+
+
+@pytest.mark.parametrize('search', [True, False])
+def test_a_live_session_started_at_a_pose_searches_after_losses_unless_it_may_not(
+        hand_model, observed, search) -> None:
+    sequence, frames, observations = observed
+    pipeline = OfflinePipeline(hand_model, sequence.rig, from_mapping(PipelineConfig, {
+        'session.failure.reinit_after': 1, 'session.acquisition.step_budget_ms': 1.0}),
+        detector=lambda image, roi: None)
+    pipeline.close()      # only its tracker is used
+    away = frames[0].theta.copy()
+    away[:3] += (0.15, 0.0, 0.1)                 # where the hand was once, not where it is
+    session = TrackingSession(pipeline.tracker, pipeline.config.session, initial_pose=away,
+                              search=search)
+    first = _live_step(session, observations[1])        # from the pose, not a search
+    assert first.status == TrackStatus.LOST and 'initialize' in first.timings_s
+    assert session.restarts == 1 and session.acquiring == search
+    second = _live_step(session, observations[2])
+    assert (second.recovered_from == 'search') == search

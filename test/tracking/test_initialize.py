@@ -6,7 +6,7 @@ import pytest
 import scipy.stats
 
 from hand_tracker_ros.core.frames import FrameSet
-from hand_tracker_ros.errors import HandTrackerError
+from hand_tracker_ros.errors import HandTrackerError, ShapeError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
@@ -15,7 +15,6 @@ from hand_tracker_ros.tracking.initialize import (
     InitConfig,
     VisualHull,
     hypotheses,
-    locate_hand,
     ranked_hypotheses,
 )
 
@@ -33,27 +32,55 @@ def test_the_visual_hull_places_a_ball_and_ignores_clutter_in_one_camera() -> No
     rig = CameraRig.ring(3, 160, 120)
     centre = np.array([0.02, -0.01, 0.03])
     masks = _ball_masks(rig, centre)
-    np.testing.assert_allclose(locate_hand(rig.cameras, masks, 10), centre, atol=3e-3)
+    locate = VisualHull(rig.cameras).centre
+    np.testing.assert_allclose(locate(masks, 10), centre, atol=3e-3)
     cluttered = [masks[0] | _ball_masks(rig, np.array([-0.1, 0.12, -0.05]), 15.0)[0],
                  *masks[1:]]
-    np.testing.assert_allclose(locate_hand(rig.cameras, cluttered, 10), centre, atol=3e-3)
+    np.testing.assert_allclose(locate(cluttered, 10), centre, atol=3e-3)
+    # A camera that sees foreground everywhere carves nothing: what the others see stays.
+    np.testing.assert_allclose(locate([masks[0] | True, *masks[1:]], 10), centre, atol=3e-3)
     with pytest.raises(HandTrackerError, match='only 1 camera'):
-        locate_hand(rig.cameras, [masks[0], masks[1] & False, masks[2] & False], 10)
+        locate([masks[0], masks[1] & False, masks[2] & False], 10)
     apart = [masks[0], _ball_masks(rig, np.array([0.1, 0.1, 0.0]))[1], masks[2]]
     with pytest.raises(HandTrackerError, match='do not intersect'):
-        locate_hand(rig.cameras, apart, 10)
+        locate(apart, 10)
+    with pytest.raises(ShapeError, match='masks for 3 cameras'):
+        locate(masks[:2], 10)
+    with pytest.raises(ShapeError, match='a 80x60 mask'):
+        locate([m[::2, ::2] for m in masks], 10)
 
 
 def test_a_kept_visual_hull_locates_as_a_new_one_whichever_cameras_see_foreground() -> None:
     rig = CameraRig.ring(4, 160, 120)
     hull = VisualHull(rig.cameras)
-    for centre, seeing in (((0.02, -0.01, 0.03), (0, 1, 2, 3)), ((-0.03, 0.02, 0.0), (0, 2, 3)),
-                           ((0.0, 0.03, -0.02), (0, 1, 2, 3)), ((0.01, 0.0, 0.01), (1, 3))):
+    cases = [((0.02, -0.01, 0.03), (0, 1, 2, 3)), ((-0.03, 0.02, 0.0), (0, 2, 3)),
+             ((0.0, 0.03, -0.02), (0, 1, 2, 3)), ((0.01, 0.0, 0.01), (1, 3)),
+             ((0.0, 0.0, 0.0), (0, 1)), ((0.01, 0.01, 0.0), (1, 2)),
+             ((0.02, -0.01, 0.03), (0, 1, 2, 3))]       # more camera sets than are kept
+    for centre, seeing in cases:
         masks = [m if c in seeing else m & False
                  for c, m in enumerate(_ball_masks(rig, np.array(centre)))]
         found = hull.centre(masks, 10)
-        np.testing.assert_array_equal(found, locate_hand(rig.cameras, masks, 10))
+        np.testing.assert_array_equal(found, VisualHull(rig.cameras).centre(masks, 10))
         np.testing.assert_allclose(found, centre, atol=3e-3)
+
+
+def test_masks_of_a_region_of_interest_are_placed_in_the_image() -> None:
+    rig = CameraRig.ring(3, 160, 120)
+    centre = np.array([0.02, -0.01, 0.03])
+    masks = _ball_masks(rig, centre)
+    hull = VisualHull(rig.cameras)
+    boxes, crops = [], []
+    for mask in masks:
+        rows, cols = np.nonzero(mask)
+        box = (int(cols.min()) - 5, int(rows.min()) - 7, int(cols.max()) + 9, int(rows.max()) + 4)
+        boxes.append(box)
+        crops.append(mask[box[1]:box[3], box[0]:box[2]])
+    np.testing.assert_array_equal(hull.centre(crops, 10, boxes), hull.centre(masks, 10))
+    # The same crops read as if they covered the image's top-left corner: elsewhere.
+    with pytest.raises(HandTrackerError, match='do not intersect'):
+        hull.centre([np.pad(c, ((0, 120 - c.shape[0]), (0, 160 - c.shape[1])))
+                     for c in crops], 10)
 
 
 @pytest.mark.slow
