@@ -156,7 +156,6 @@ class TrackerNode(Node):
         initial = (np.asarray(self.config.initial_pose, np.float64)
                    if self.config.initialization == 'initial_pose' else None)
         resets = initial is not None and self.config.restart_at_initial_pose
-        self._restart_from = 'initial_pose' if resets else 'observations'
         self._tracker = HandTracker(self._model, self.working_cameras, self.config.tracking)
         self._session = TrackingSession(self._tracker, self.config.session,
                                         initial_pose=initial, search=not resets)
@@ -346,7 +345,8 @@ class TrackerNode(Node):
         latency_s = (self.get_clock().now().nanoseconds - synced.stamp_ns) / 1e9
         restarted = self._session.restarts - restarts
         if restarted:
-            self.get_logger().warning(f'hand lost: re-initializing from {self._restart_from}')
+            self.get_logger().warning(f'hand lost: re-initializing from '
+                                      f'{self._session.restarts_from}')
         elif result.status != TrackStatus.TRACKING:
             self._log_throttled('lost', 'warning', f'hand lost (confidence '
                                 f'{result.confidence:.2f}, {self._session.lost_frames} frames '

@@ -134,6 +134,12 @@ class TrackingSession:
         self.status = None
 
     @property
+    def restarts_from(self) -> str:
+        """Where a restart after losses starts: ``'observations'`` (the search) or
+        ``'initial_pose'`` (module docstring, step 5)."""
+        return 'observations' if self._searches(restart=True) else 'initial_pose'
+
+    @property
     def acquiring(self) -> bool:
         """True while a live search for the hand is in progress."""
         return self._acquisition is not None

@@ -116,5 +116,6 @@ def test_a_live_session_started_at_a_pose_searches_after_losses_unless_it_may_no
     first = _live_step(session, observations[1])        # from the pose, not a search
     assert first.status == TrackStatus.LOST and 'initialize' in first.timings_s
     assert session.restarts == 1 and session.acquiring == search
+    assert session.restarts_from == ('observations' if search else 'initial_pose')
     second = _live_step(session, observations[2])
     assert (second.recovered_from == 'search') == search
