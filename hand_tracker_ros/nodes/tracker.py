@@ -155,10 +155,10 @@ class TrackerNode(Node):
         self._model = HandModel.build(shape)
         initial = (np.asarray(self.config.initial_pose, np.float64)
                    if self.config.initialization == 'initial_pose' else None)
-        resets = initial is not None and self.config.restart_at_initial_pose
         self._tracker = HandTracker(self._model, self.working_cameras, self.config.tracking)
         self._session = TrackingSession(self._tracker, self.config.session,
-                                        initial_pose=initial, search=not resets)
+                                        initial_pose=initial,
+                                        search=not self.config.restart_at_initial_pose)
         self._init_state()
         self._create_outputs()
         if self.config.inputs == 'features':

@@ -35,6 +35,7 @@ from hand_tracker_ros.model.poses import RELAXED_DEG, with_joints_deg
 from hand_tracker_ros.tracking.evidence import CoarseMasks, silhouette_iou
 from hand_tracker_ros.tracking.schedule import QUICK, Round
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
+from hand_tracker_ros.vision.visualize import paste_roi
 
 LOG = logging.getLogger(__name__)
 
@@ -118,7 +119,7 @@ class VisualHull:
         for i, flat in zip(used, pixels):
             camera = self.cameras[i]
             box = (0, 0, camera.width, camera.height) if rois_px is None else rois_px[i]
-            hull &= _in_mask(np.asarray(masks[i], bool), box, flat, camera.width)
+            hull &= _foreground(np.asarray(masks[i], bool), box, camera)[flat]
         hull = hull.reshape((2 * n + 1,) * 3)
         labels, count = scipy.ndimage.label(hull)
         if count == 0:
@@ -158,21 +159,17 @@ class VisualHull:
         return self._grids[used]
 
 
-def _in_mask(mask: np.ndarray, box: tuple[int, int, int, int], flat: np.ndarray,
-             width: int) -> np.ndarray:
-    """Whether each voxel (N,) bool lands on foreground of ``mask`` (h, w), which covers the
-    full-image box ``(u0, v0, u1, v1)``; ``flat`` (N,) int32 are the voxels' full-image flat
-    pixels (``W * H`` outside the image) of an image ``width`` px wide."""
+def _foreground(mask: np.ndarray, box: tuple[int, int, int, int], camera: Camera
+                ) -> np.ndarray:
+    """The camera's whole-image mask (W * H + 1,) bool, flattened, from ``mask`` (h, w)
+    covering the full-image box ``(u0, v0, u1, v1)``; the entry appended is background, the
+    pixel of the voxels that project outside the image."""
     u0, v0, u1, v1 = box
     if mask.shape != (v1 - v0, u1 - u0):
         msg = f'a {mask.shape[1]}x{mask.shape[0]} mask for the box {box}'
         raise ShapeError(msg)
-    padded = np.append(mask.ravel(), False)            # the last entry: not foreground
-    if (u0, v0) == (0, 0) and u1 == width:              # the whole image (or its top rows)
-        return padded[np.minimum(flat, mask.size)]
-    row, col = np.divmod(flat, width)
-    inside = (row >= v0) & (row < v1) & (col >= u0) & (col < u1)
-    return padded[np.where(inside, (row - v0) * (u1 - u0) + col - u0, mask.size)]
+    full = paste_roi(mask, box, (camera.width, camera.height), fill=False)
+    return np.append(full.ravel(), False)
 
 
 def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArray]:  # noqa: ANN001
