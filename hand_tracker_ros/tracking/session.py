@@ -18,8 +18,9 @@ tracked offline and the same bag played through the graph follow the same rules:
 4. **Recover locally** when the confidence is below ``failure.recover_below``: the frame is
    fitted again, one short round each, from the previous estimate, from the hand turned
    about its own axes (palm flips, quarter turns; of the new fit and of the last estimate the
-   session trusted) and from the new fit's palm with other fingers (relaxed, half closed;
-   :func:`.hypotheses.finger_hypotheses`); the most confident of them gets the full schedule
+   session trusted) and from the new fit's palm with other fingers (relaxed, half closed, two
+   neighbours' flexions swapped: :func:`.hypotheses.finger_hypotheses`,
+   :func:`.hypotheses.swapped_fingers`); the most confident of them gets the full schedule
    and replaces the fit if it is more confident. This costs time only on doubtful frames.
 5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
    ``failure.lost_below``: the search runs on the current frame (with a deadline: the live
@@ -48,6 +49,7 @@ from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measu
 from hand_tracker_ros.tracking.hypotheses import (
     constant_velocity,
     finger_hypotheses,
+    swapped_fingers,
     turned_hypotheses,
 )
 from hand_tracker_ros.tracking.initialize import InitConfig, initialize
@@ -301,6 +303,7 @@ class TrackingSession:
         starts: dict[str, FloatArray] = {'last': self.tracker.history[-1]}
         starts.update(turned_hypotheses(first.fit.theta, model))
         starts.update(finger_hypotheses(first.fit.theta, model))
+        starts.update(swapped_fingers(first.fit.theta, model))
         if self._trusted is not None:
             starts['trusted'] = self._trusted
             starts.update({f'trusted_{k}': v

@@ -1,17 +1,18 @@
 """Start hypotheses: constant-velocity prediction, hands turned about their own axes, other
-fingers."""
+fingers, swapped neighbours."""
 from __future__ import annotations
 
 import numpy as np
 
 from hand_tracker_ros.geometry.rotations import rot_y, rot_z
-from hand_tracker_ros.model.layout import Layout
+from hand_tracker_ros.model.layout import FINGERS, Layout
 from hand_tracker_ros.tracking.hypotheses import (
     FINGER_POSES,
     TURNS,
     constant_velocity,
     finger_hypotheses,
     hand_rotation,
+    swapped_fingers,
     turned,
     turned_hypotheses,
 )
@@ -78,3 +79,22 @@ def test_finger_hypotheses_keep_the_palm_and_set_every_finger_joint(hand_model) 
         np.testing.assert_allclose(posed.keypoints_m[0], wrist, atol=1e-12)
         tips.append(np.linalg.norm(posed.fingertips_m - wrist, axis=1))
     assert np.all(tips[1][1:] < tips[0][1:])      # curled long fingers end nearer the wrist
+
+
+def test_swapped_fingers_exchange_two_neighbours_flexions_and_nothing_else(hand_model) -> None:
+    theta = _theta(hand_model)
+    for k, finger in enumerate(FINGERS):      # every finger flexed differently, abducted
+        for j, joint in enumerate(('mcp_flex', 'pip_flex', 'dip_flex')):
+            theta[Layout.index(f'{finger}_{joint}')] = 0.1 + 0.2 * k + 0.05 * j
+        theta[Layout.index(f'{finger}_mcp_abd')] = 0.1
+    starts = swapped_fingers(theta, hand_model)
+    assert set(starts) == {'swap_index_middle', 'swap_middle_ring', 'swap_ring_pinky'}
+    for first, second in zip(FINGERS[:-1], FINGERS[1:]):
+        start = starts[f'swap_{first}_{second}']
+        expected = theta.copy()
+        for joint in ('mcp_flex', 'pip_flex', 'dip_flex'):
+            a, b = Layout.index(f'{first}_{joint}'), Layout.index(f'{second}_{joint}')
+            expected[a], expected[b] = theta[b], theta[a]
+        for finger in (first, second):
+            expected[Layout.index(f'{finger}_mcp_abd')] = 0.0
+        np.testing.assert_array_equal(start, expected)
