@@ -13,8 +13,10 @@
    ``refine_best`` best of them get ``refine_frames`` full fits, and the best score wins. The
    ranking of the unfitted relaxed hands by IoU is weak (on a random-motion frame the
    hypothesis that ends within 15 mm ranked 11th of 48), hence the short fits of many.
+4. **Fingers** (``finger_search``): every finger in turn is tried in other states
+   (:mod:`.fingers`); the palm is usually right by now, single fingers often are not.
 
-Cost: 48 short fits and 18 full fits with the defaults, a few seconds on a 2-core machine.
+Cost: 64 short fits and 18 full fits with the defaults, a few seconds on a 2-core machine.
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.model.poses import RELAXED_DEG, with_joints_deg
 from hand_tracker_ros.tracking.evidence import CoarseMasks, silhouette_iou
+from hand_tracker_ros.tracking.fingers import search_fingers
 from hand_tracker_ros.tracking.schedule import QUICK, Round
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 from hand_tracker_ros.vision.visualize import paste_roi
@@ -55,6 +58,8 @@ class InitConfig:
                              low=1, high=50)
     refine_frames: int = param(6, 'full fits per refined hypothesis', low=1, high=50)
     min_mask_px: int = param(50, 'masks smaller than this are ignored', unit='px', low=1)
+    finger_search: bool = param(True, 'then try every finger in other states, one at a time '
+                                '(tracking/fingers.py)')
 
 
 def _view_centre(cameras: Sequence[Camera]) -> tuple[FloatArray, float]:
@@ -222,6 +227,10 @@ def initialize(tracker: HandTracker, observations: FrameObservations,
     quick.sort(key=lambda fit: -score(fit))
     finals = [refined(fit.theta, config.refine_frames, None) for fit in quick[:config.refine_best]]
     best_score, best = max(((score(fit), fit.theta) for fit in finals), key=lambda item: item[0])
+    if config.finger_search:
+        best_score, best = max((best_score, best),
+                               search_fingers(tracker, observations, best, score),
+                               key=lambda item: item[0])
     LOG.info('initialized at %s (score %.2f)', np.round(center, 3), best_score)
     tracker.reset(best)
     return best
