@@ -21,6 +21,13 @@ more than 15 mm off 8.4 -> 2.5 %, and 123 -> 110 ms per set (fewer recoveries la
 confidence does not rank the states of one finger reliably (on one set a closed index
 finger 11 mm off scored 0.915, a curled one 4.6 mm off 0.887), so a finger can also end a
 little worse (4.7 -> 5.2 mm above).
+
+Tried and not kept: a tracked frame below ``failure.recover_below`` trying the next one or
+three finger states in a cycle (one short fit each, kept when more confident). Offline it
+changed nothing (6 held-out random seeds from the automatic start: 2.23 / 2.23 / 2.24 mm
+mean with 0 / 1 / 3 states), in the simulated live loop (``bench/simulate_live.py --start
+search``, seeds 9101-9112, twice each) one state per doubtful set tracked 82 % of the sets
+on average against 83 % without.
 """
 from __future__ import annotations
 
