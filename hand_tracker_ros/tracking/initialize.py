@@ -13,10 +13,10 @@
    ``refine_best`` best of them get ``refine_frames`` full fits, and the best score wins. The
    ranking of the unfitted relaxed hands by IoU is weak (on a random-motion frame the
    hypothesis that ends within 15 mm ranked 11th of 48), hence the short fits of many.
-4. **Fingers** (``finger_search``): every finger in turn is tried in other states
+4. **Fingers** (``finger_search``): every long finger in turn is tried in other states
    (:mod:`.fingers`); the palm is usually right by now, single fingers often are not.
 
-Cost: 64 short fits and 18 full fits with the defaults, a few seconds on a 2-core machine.
+Cost: 61 short fits and 18 full fits with the defaults, a few seconds on a 2-core machine.
 """
 from __future__ import annotations
 
@@ -58,8 +58,8 @@ class InitConfig:
                              low=1, high=50)
     refine_frames: int = param(6, 'full fits per refined hypothesis', low=1, high=50)
     min_mask_px: int = param(50, 'masks smaller than this are ignored', unit='px', low=1)
-    finger_search: bool = param(True, 'then try every finger in other states, one at a time '
-                                '(tracking/fingers.py)')
+    finger_search: bool = param(True, 'then try every long finger in other states, one at a '
+                                'time (tracking/fingers.py)')
 
 
 def _view_centre(cameras: Sequence[Camera]) -> tuple[FloatArray, float]:

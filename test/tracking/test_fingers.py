@@ -11,7 +11,6 @@ from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
 from hand_tracker_ros.tracking.fingers import (
     FINGER_STATES,
-    THUMB_STATES,
     finger_states,
     search_fingers,
     short_fit,
@@ -21,19 +20,16 @@ from hand_tracker_ros.tracking.fingers import (
 def test_a_finger_state_sets_that_finger_and_nothing_else(hand_model) -> None:
     theta = hand_model.neutral_theta((0.01, -0.05, 0.02))
     theta[Layout.index('middle_mcp_abd')] = 0.1
-    for finger in ('thumb', *FINGERS):
+    for finger in FINGERS:
         states = finger_states(theta, finger, hand_model)
-        table = THUMB_STATES if finger == 'thumb' else FINGER_STATES
-        assert set(states) == {f'{finger}_{name}' for name in table}
+        assert set(states) == {f'{finger}_{name}' for name in FINGER_STATES}
         own = np.zeros(Layout.P, bool)
         own[Layout.per_finger[finger]] = True
         for name, start in states.items():
             np.testing.assert_array_equal(start[~own], theta[~own])
-            expected = np.deg2rad(table[name.removeprefix(f'{finger}_')])
-            if finger == 'thumb':
-                np.testing.assert_allclose(start[own], expected)
-            else:                   # MCP flex, abduction 0, PIP, DIP
-                np.testing.assert_allclose(start[own], [expected[0], 0.0, *expected[1:]])
+            expected = np.deg2rad(FINGER_STATES[name.removeprefix(f'{finger}_')])
+            # MCP flexion, abduction 0, PIP, DIP
+            np.testing.assert_allclose(start[own], [expected[0], 0.0, *expected[1:]])
 
 
 @pytest.mark.slow
