@@ -46,6 +46,7 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import FINGERS, Layout
+from hand_tracker_ros.tracking.hypotheses import FLEXIONS
 from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
@@ -54,7 +55,6 @@ from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 # closed (the synthetic fist's).
 FINGER_STATES: dict[str, tuple[float, float, float]] = {
     'extended': (0.0, 0.0, 0.0), 'curled': (45.0, 55.0, 30.0), 'closed': (75.0, 90.0, 45.0)}
-_FLEXIONS = ('mcp_flex', 'pip_flex', 'dip_flex')
 
 
 def finger_states(theta: FloatArray, finger: str, model: HandModel) -> dict[str, FloatArray]:
@@ -63,7 +63,7 @@ def finger_states(theta: FloatArray, finger: str, model: HandModel) -> dict[str,
     out = {}
     for name, degrees in FINGER_STATES.items():
         start = np.array(theta, np.float64)
-        for joint, value in zip(_FLEXIONS, degrees):
+        for joint, value in zip(FLEXIONS, degrees):
             start[Layout.index(f'{finger}_{joint}')] = np.deg2rad(value)
         start[Layout.index(f'{finger}_mcp_abd')] = 0.0
         out[f'{finger}_{name}'] = np.clip(start, model.lower, model.upper)

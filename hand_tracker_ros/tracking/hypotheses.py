@@ -97,7 +97,8 @@ def finger_hypotheses(theta: FloatArray, model: HandModel) -> dict[str, FloatArr
     return out
 
 
-_FLEXIONS = ('mcp_flex', 'pip_flex', 'dip_flex')
+# The flexion joints of a long finger, base first.
+FLEXIONS = ('mcp_flex', 'pip_flex', 'dip_flex')
 
 
 def swapped_fingers(theta: FloatArray, model: HandModel) -> dict[str, FloatArray]:
@@ -106,11 +107,10 @@ def swapped_fingers(theta: FloatArray, model: HandModel) -> dict[str, FloatArray
     out = {}
     for first, second in zip(FINGERS[:-1], FINGERS[1:]):
         start = np.array(theta, np.float64)
-        for joint in _FLEXIONS:
+        for joint in FLEXIONS:
             a, b = Layout.index(f'{first}_{joint}'), Layout.index(f'{second}_{joint}')
             start[a], start[b] = theta[b], theta[a]
         for finger in (first, second):
             start[Layout.index(f'{finger}_mcp_abd')] = 0.0
         out[f'swap_{first}_{second}'] = np.clip(start, model.lower, model.upper)
     return out
-

@@ -8,6 +8,7 @@ from hand_tracker_ros.geometry.rotations import rot_y, rot_z
 from hand_tracker_ros.model.layout import FINGERS, Layout
 from hand_tracker_ros.tracking.hypotheses import (
     FINGER_POSES,
+    FLEXIONS,
     TURNS,
     constant_velocity,
     finger_hypotheses,
@@ -84,7 +85,7 @@ def test_finger_hypotheses_keep_the_palm_and_set_every_finger_joint(hand_model) 
 def test_swapped_fingers_exchange_two_neighbours_flexions_and_nothing_else(hand_model) -> None:
     theta = _theta(hand_model)
     for k, finger in enumerate(FINGERS):      # every finger flexed differently, abducted
-        for j, joint in enumerate(('mcp_flex', 'pip_flex', 'dip_flex')):
+        for j, joint in enumerate(FLEXIONS):
             theta[Layout.index(f'{finger}_{joint}')] = 0.1 + 0.2 * k + 0.05 * j
         theta[Layout.index(f'{finger}_mcp_abd')] = 0.1
     starts = swapped_fingers(theta, hand_model)
@@ -92,7 +93,7 @@ def test_swapped_fingers_exchange_two_neighbours_flexions_and_nothing_else(hand_
     for first, second in zip(FINGERS[:-1], FINGERS[1:]):
         start = starts[f'swap_{first}_{second}']
         expected = theta.copy()
-        for joint in ('mcp_flex', 'pip_flex', 'dip_flex'):
+        for joint in FLEXIONS:
             a, b = Layout.index(f'{first}_{joint}'), Layout.index(f'{second}_{joint}')
             expected[a], expected[b] = theta[b], theta[a]
         for finger in (first, second):
