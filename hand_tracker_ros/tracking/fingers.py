@@ -46,6 +46,7 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import FINGERS, Layout
+from hand_tracker_ros.model.poses import CURLED_DEG
 from hand_tracker_ros.tracking.hypotheses import FLEXIONS
 from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
@@ -53,8 +54,10 @@ from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 # MCP, PIP and DIP flexion (deg) of a long finger in each tried state, ours: straight, half
 # closed (the recovery's curled hand, :data:`hand_tracker_ros.model.poses.CURLED_DEG`) and
 # closed (the synthetic fist's).
-FINGER_STATES: dict[str, tuple[float, float, float]] = {
-    'extended': (0.0, 0.0, 0.0), 'curled': (45.0, 55.0, 30.0), 'closed': (75.0, 90.0, 45.0)}
+FINGER_STATES: dict[str, tuple[float, ...]] = {
+    'extended': (0.0, 0.0, 0.0),
+    'curled': tuple(CURLED_DEG[f'index_{joint}'] for joint in FLEXIONS),
+    'closed': (75.0, 90.0, 45.0)}
 
 
 def finger_states(theta: FloatArray, finger: str, model: HandModel) -> dict[str, FloatArray]:
