@@ -32,6 +32,8 @@ import numpy as np
 from hand_tracker_ros._typing import BoolArray
 
 FINGERS = ('index', 'middle', 'ring', 'pinky')
+# The flexion joints of a long finger, base first.
+FLEXIONS = ('mcp_flex', 'pip_flex', 'dip_flex')
 
 PARAM_NAMES: tuple[str, ...] = (
     'hand_tx', 'hand_ty', 'hand_tz',

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
-from hand_tracker_ros.model.layout import FINGERS, PARAM_NAMES, Layout
+from hand_tracker_ros.model.layout import FINGERS, FLEXIONS, PARAM_NAMES, Layout
 
 # Relaxed, slightly flexed open hand (rad), our choice; inside the joint limits.
 NEUTRAL_RAD: dict[str, float] = {
@@ -38,8 +38,13 @@ RELAXED_DEG: dict[str, float] = {
 # Fingers half closed (deg), ours: halfway between RELAXED_DEG and a fist.
 CURLED_DEG: dict[str, float] = {
     'thumb_cmc_flex': 10.0, 'thumb_cmc_abd': 30.0, 'thumb_mcp_flex': 30.0, 'thumb_ip_flex': 30.0,
-    **{f'{f}_{j}': v for f in FINGERS for j, v in (('mcp_flex', 45.0), ('pip_flex', 55.0),
-                                                     ('dip_flex', 30.0))},
+    **{f'{f}_{j}': v for f in FINGERS for j, v in zip(FLEXIONS, (45.0, 55.0, 30.0))},
+}
+
+# A fist with the thumb outside (deg), ours: the synthetic fist motions' closed pose.
+FIST_DEG: dict[str, float] = {
+    'thumb_cmc_flex': 10.0, 'thumb_cmc_abd': 30.0, 'thumb_mcp_flex': 20.0, 'thumb_ip_flex': 10.0,
+    **{f'{f}_{j}': v for f in FINGERS for j, v in zip(FLEXIONS, (75.0, 90.0, 45.0))},
 }
 
 

@@ -36,8 +36,8 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.geometry.triangle_pairs import face_parts, intersecting_pairs
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.model.layout import FINGERS, PARAM_NAMES, Layout
-from hand_tracker_ros.model.poses import RELAXED_DEG, with_joints_deg
+from hand_tracker_ros.model.layout import FINGERS, FLEXIONS, PARAM_NAMES, Layout
+from hand_tracker_ros.model.poses import FIST_DEG, RELAXED_DEG, with_joints_deg
 from hand_tracker_ros.model.skeleton import joint_limits
 
 MOTIONS = ('tapping', 'fist', 'pinch', 'grasp', 'wrist', 'random')
@@ -58,8 +58,7 @@ class Keyframe:
 
 
 def _flexed(fingers: Sequence[str], mcp: float, pip: float, dip: float) -> dict[str, float]:
-    return {f'{f}_{j}': v for f in fingers
-            for j, v in (('mcp_flex', mcp), ('pip_flex', pip), ('dip_flex', dip))}
+    return {f'{f}_{j}': v for f in fingers for j, v in zip(FLEXIONS, (mcp, pip, dip))}
 
 
 def _cycle(poses: Sequence[Mapping[str, float]], period_s: float, duration_s: float
@@ -77,9 +76,7 @@ def _tapping(duration_s: float) -> list[Keyframe]:
 
 
 def _fist(duration_s: float) -> list[Keyframe]:
-    fist = {**_flexed(FINGERS, 75.0, 90.0, 45.0), 'thumb_cmc_flex': 10.0,
-            'thumb_cmc_abd': 30.0, 'thumb_mcp_flex': 20.0, 'thumb_ip_flex': 10.0}
-    return _cycle([{}, fist], 0.8, duration_s)
+    return _cycle([{}, FIST_DEG], 0.8, duration_s)
 
 
 def _pinch(duration_s: float) -> list[Keyframe]:
@@ -109,9 +106,7 @@ def _calibration(duration_s: float) -> list[Keyframe]:
     spread = {**straight, 'index_mcp_abd': 12.0, 'ring_mcp_abd': -10.0,
               'pinky_mcp_abd': -15.0, 'thumb_cmc_abd': 60.0, 'thumb_cmc_flex': -10.0,
               'thumb_mcp_flex': 0.0, 'thumb_ip_flex': 0.0}
-    fist = {**_flexed(FINGERS, 75.0, 90.0, 45.0), 'thumb_cmc_flex': 10.0,
-            'thumb_cmc_abd': 30.0, 'thumb_mcp_flex': 20.0, 'thumb_ip_flex': 10.0}
-    poses = [{}, spread, fist, {**straight, 'hand_ry': -40.0, 'hand_rx': 20.0},
+    poses = [{}, spread, FIST_DEG, {**straight, 'hand_ry': -40.0, 'hand_rx': 20.0},
              {**straight, 'hand_ry': -140.0, 'hand_rx': -20.0}]
     return _cycle(poses, 0.6, duration_s)
 

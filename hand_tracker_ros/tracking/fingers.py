@@ -1,31 +1,33 @@
 """Finger-wise search: one finger at a time is put in other states and the hand refitted.
 
 The global search (:mod:`.initialize`) starts from relaxed hands. When it ends with the palm
-in place, what is left wrong is one or two fingers: on random-motion sets the palm keypoints
-were within 1-4 mm of the truth in 7 of 10 searched sets while single fingertips were 44-134
-mm off, because a finger that is far from its start state does not reach its data within a
-few rounds, and silhouette and edges are satisfied well enough by the fingers beside it.
+in place, what is left wrong is one or two fingers: on sets 0 and 30 of random-motion seeds
+7020-7024 the palm keypoints (wrist and finger bases) were within 1-4 mm of the truth in 9 of
+the 10 searched sets while the mean error was 5.7-28.8 mm, because a finger that is far from
+its start state does not reach its data within a few rounds, and silhouette and edges are
+satisfied well enough by the fingers beside it.
 Every long finger, index first, is therefore tried in each of a few states
 (:data:`FINGER_STATES`; its abduction set to 0), the rest of the hand as it is; each start
 gets one short round (:data:`.schedule.QUICK`), and a start whose fit scores higher than
-the best so far becomes the base of the next fingers' starts (coordinate search). 13 short
+the best so far becomes the base of the next fingers' starts (coordinate search). 12 short
 fits, about 0.25 s at 4 x 320x240 on 2 cores.
 
-Measured (mean 3D joint error). Right after the one-shot search, on sets 0 and 30 of
-random-motion seeds 7020, 7021, 7022 and 7024: in the 7 sets with the palm in place it went
-from 28.8 / 5.3 / 9.2 / 4.7 / 13.5 / 6.0 / 10.4 mm to 14.2 / 3.7 / 2.2 / 5.2 / 9.9 / 3.3 /
-3.1 mm; with the palm turned wrong it cannot help (41.8 -> 48.0 mm, confidence 0.0 before
-and after). Tracked offline from the automatic start (40 sets of random-motion seeds
-8001-8008, held out): 4.89 -> 3.13 mm mean, 11.4 -> 7.8 mm over the first 10 sets, sets
-more than 15 mm off 8.4 -> 1.6 %. The confidence does not rank the states of one finger
-reliably (on one set a closed index finger 11 mm off scored 0.915, a curled one 4.6 mm off
-0.887), so a finger can also end a little worse (4.7 -> 5.2 mm above).
+Measured (mean 3D joint error). Right after the one-shot search on those 10 sets, without /
+with the finger search: 28.8 / 11.6, 8.7 / 4.3, 9.2 / 4.1, 5.7 / 7.9, 25.8 / 5.1,
+13.5 / 10.7, 16.6 / 5.3, 6.0 / 4.0 and 7.9 / 5.2 mm on the 9 with the palm in place; on the
+one with the palm turned wrong (30.6 mm off) it cannot help (27.2 mm both). Tracked offline
+from the automatic start (40 sets of random-motion seeds 8001-8008, held out): 4.89 -> 3.12
+mm mean, 11.4 -> 7.8 mm over the first 10 sets, sets more than 15 mm off 8.4 -> 1.6 %. The
+confidence does not rank the states of one finger reliably (on one set a closed index finger
+11 mm off scored 0.915, a curled one 4.6 mm off 0.887), so a finger can also end worse
+(5.7 -> 7.9 mm above).
 
-The thumb is left out. With three thumb states (out, curled, across the palm) the numbers
-above were 3.02 mm, 7.4 and 2.5 %, but on the robustness suite's held-out seed 300 the
-search moved a thumb that was 29 mm off to 147 mm off with a higher confidence, and the
-300-set sequence took 70 sets to recover (1.70 -> 4.47 mm mean): the evidence cannot judge
-the thumb, which lies across the palm's silhouette in most views.
+The thumb is left out. A first version had three thumb states (out, curled, across the
+palm) and also refitted the search's best with a short fit: 3.02 mm, 7.4 mm and 2.5 % on
+the tracked seeds above, but on the robustness suite's held-out seed 300 it moved a thumb
+that was 29 mm off to 147 mm off at a higher confidence, and that 300-set sequence took 70
+sets to recover (1.70 -> 4.47 mm mean): the evidence cannot judge the thumb, which lies
+across the palm's silhouette in most views.
 
 Tried and not kept: a tracked frame below ``failure.recover_below`` trying the next one or
 three finger states in a cycle (one short fit each, kept when more confident). Offline it
@@ -38,48 +40,45 @@ other set, a finger state of the fit it follows before its next new start: 62 % 
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.model.layout import FINGERS, Layout
-from hand_tracker_ros.model.poses import CURLED_DEG
-from hand_tracker_ros.tracking.hypotheses import FLEXIONS
+from hand_tracker_ros.model.layout import FINGERS, FLEXIONS, Layout
+from hand_tracker_ros.model.poses import CURLED_DEG, FIST_DEG
 from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
-# MCP, PIP and DIP flexion (deg) of a long finger in each tried state, ours: straight, half
-# closed (the recovery's curled hand, :data:`hand_tracker_ros.model.poses.CURLED_DEG`) and
-# closed (the synthetic fist's).
-FINGER_STATES: dict[str, tuple[float, ...]] = {
-    'extended': (0.0, 0.0, 0.0),
-    'curled': tuple(CURLED_DEG[f'index_{joint}'] for joint in FLEXIONS),
-    'closed': (75.0, 90.0, 45.0)}
+# The tried states of a long finger: its flexions (deg, by joint name) straight, as in the
+# half-closed hand and as in the fist of :mod:`hand_tracker_ros.model.poses`.
+FINGER_STATES: dict[str, Mapping[str, float]] = {
+    'extended': {f'{finger}_{joint}': 0.0 for finger in FINGERS for joint in FLEXIONS},
+    'curled': CURLED_DEG, 'closed': FIST_DEG}
 
 
 def finger_states(theta: FloatArray, finger: str, model: HandModel) -> dict[str, FloatArray]:
     """``theta`` (P,) with ``finger`` (one of ``FINGERS``) in each of its states, clipped to
     the joint limits; name -> (P,)."""
     out = {}
+    joints = [f'{finger}_{joint}' for joint in FLEXIONS]
     for name, degrees in FINGER_STATES.items():
         start = np.array(theta, np.float64)
-        for joint, value in zip(FLEXIONS, degrees):
-            start[Layout.index(f'{finger}_{joint}')] = np.deg2rad(value)
+        start[[Layout.index(joint) for joint in joints]] = np.deg2rad([degrees[j] for j in joints])
         start[Layout.index(f'{finger}_mcp_abd')] = 0.0
         out[f'{finger}_{name}'] = np.clip(start, model.lower, model.upper)
     return out
 
 
-def search_fingers(tracker: HandTracker, observations: FrameObservations, theta: FloatArray,
-                   score: Callable[[Fit], float]) -> tuple[float, FloatArray]:
-    """The coordinate search of the module docstring from ``theta`` (P,) on one frame set:
-    the best short fit's score and pose (the short fit of ``theta`` itself included). Leaves
-    ``tracker`` reset to the last start tried."""
-    fit = short_fit(tracker, observations, theta)
-    best_score, best = score(fit), fit.theta
+def search_fingers(tracker: HandTracker, observations: FrameObservations,
+                   start: tuple[float, FloatArray], score: Callable[[Fit], float]
+                   ) -> tuple[float, FloatArray]:
+    """The coordinate search of the module docstring on one frame set from ``start``, a
+    fitted pose (P,) with its score: the best score and pose, ``start`` when no finger state
+    scores higher. Leaves ``tracker`` reset to the last start tried."""
+    best_score, best = start
     for finger in FINGERS:
         for start in finger_states(best, finger, tracker.model).values():
             fit = short_fit(tracker, observations, start)
@@ -90,6 +89,7 @@ def search_fingers(tracker: HandTracker, observations: FrameObservations, theta:
 
 
 def short_fit(tracker: HandTracker, observations: FrameObservations, theta: FloatArray) -> Fit:
-    """One short round (:data:`.schedule.QUICK`) from ``theta``, the tracker reset to it."""
+    """One short round (:data:`.schedule.QUICK`) from ``theta`` (P,), the tracker reset to
+    it."""
     tracker.reset(theta)
     return tracker.fit(observations, plan=QUICK, separate=False)

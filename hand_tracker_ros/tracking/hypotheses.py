@@ -1,4 +1,5 @@
-"""Start poses for a frame besides the previous estimate: prediction and turned hands.
+"""Start poses for a frame besides the previous estimate: prediction, turned hands, other
+fingers and swapped neighbours.
 
 - **Constant velocity**: ``theta_t = theta_1 + s (theta_1 - theta_0)``, clipped to the joint
   limits, from the last two accepted estimates ``theta_0, theta_1`` (stamps ``t_0, t_1``) with
@@ -37,7 +38,7 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.geometry.rotations import euler_xzy_from_matrix, rot_x, rot_y, rot_z
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.model.layout import FINGERS, Layout
+from hand_tracker_ros.model.layout import FINGERS, FLEXIONS, Layout
 from hand_tracker_ros.model.poses import CURLED_DEG, RELAXED_DEG, with_joints_deg
 
 _RY, _RZ, _RX = (Layout.index(n) for n in ('hand_ry', 'hand_rz', 'hand_rx'))
@@ -97,13 +98,11 @@ def finger_hypotheses(theta: FloatArray, model: HandModel) -> dict[str, FloatArr
     return out
 
 
-# The flexion joints of a long finger, base first.
-FLEXIONS = ('mcp_flex', 'pip_flex', 'dip_flex')
-
-
 def swapped_fingers(theta: FloatArray, model: HandModel) -> dict[str, FloatArray]:
-    """``theta`` with the flexions of two neighbouring fingers exchanged and their abductions
-    set to 0, for every pair of neighbours among index to pinky (module docstring)."""
+    """``theta`` (P,) with the flexions of two neighbouring fingers exchanged and their
+    abductions set to 0, for every pair of neighbours among index to pinky (module
+    docstring); name -> (P,), clipped to the joint limits. A pair with equal flexions still
+    gives a start (its abductions at 0): one short fit more on a doubtful frame."""
     out = {}
     for first, second in zip(FINGERS[:-1], FINGERS[1:]):
         start = np.array(theta, np.float64)

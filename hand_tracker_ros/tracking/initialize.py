@@ -16,7 +16,7 @@
 4. **Fingers** (``finger_search``): every long finger in turn is tried in other states
    (:mod:`.fingers`); the palm is usually right by now, single fingers often are not.
 
-Cost: 61 short fits and 18 full fits with the defaults, a few seconds on a 2-core machine.
+Cost: 60 short fits and 18 full fits with the defaults, a few seconds on a 2-core machine.
 """
 from __future__ import annotations
 
@@ -58,8 +58,9 @@ class InitConfig:
                              low=1, high=50)
     refine_frames: int = param(6, 'full fits per refined hypothesis', low=1, high=50)
     min_mask_px: int = param(50, 'masks smaller than this are ignored', unit='px', low=1)
-    finger_search: bool = param(True, 'then try every long finger in other states, one at a '
-                                'time (tracking/fingers.py)')
+    finger_search: bool = param(True, 'the one-shot search then tries every long finger in '
+                                'other states, one at a time (tracking/fingers.py; the live '
+                                'search does not)')
 
 
 def _view_centre(cameras: Sequence[Camera]) -> tuple[FloatArray, float]:
@@ -228,9 +229,7 @@ def initialize(tracker: HandTracker, observations: FrameObservations,
     finals = [refined(fit.theta, config.refine_frames, None) for fit in quick[:config.refine_best]]
     best_score, best = max(((score(fit), fit.theta) for fit in finals), key=lambda item: item[0])
     if config.finger_search:
-        best_score, best = max((best_score, best),
-                               search_fingers(tracker, observations, best, score),
-                               key=lambda item: item[0])
+        best_score, best = search_fingers(tracker, observations, (best_score, best), score)
     LOG.info('initialized at %s (score %.2f)', np.round(center, 3), best_score)
     tracker.reset(best)
     return best

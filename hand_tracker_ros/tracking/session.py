@@ -173,10 +173,11 @@ class TrackingSession:
         iterations = judged.fit.iterations
         failure = self.config.failure
         # A live frame is refitted only when it would be LOST, and within the acquisition's
-        # step budget: a doubtful frame's full recovery (a dozen fits, about 0.3 s on 2
-        # cores) skipped the next ten sets, and the larger step to them made those doubtful
-        # too (simulated at 30 Hz, tracking from the true pose went that way from 79 % of
-        # the sets estimated to 26 % on one seed).
+        # step budget: a doubtful frame's full recovery (a dozen fits when this was measured,
+        # about 0.3 s on 2 cores; 15 short fits and a full one now) skipped the next ten
+        # sets, and the larger step to them made those doubtful too (simulated at 30 Hz,
+        # tracking from the true pose went that way from 79 % of the sets estimated to 26 %
+        # on one seed).
         live = deadline_s is not None
         recover_below = failure.lost_below if live else failure.recover_below
         if self.config.recovery and judged.confidence < recover_below:
@@ -303,11 +304,12 @@ class TrackingSession:
         starts: dict[str, FloatArray] = {'last': self.tracker.history[-1]}
         starts.update(turned_hypotheses(first.fit.theta, model))
         starts.update(finger_hypotheses(first.fit.theta, model))
-        starts.update(swapped_fingers(first.fit.theta, model))
         if self._trusted is not None:
             starts['trusted'] = self._trusted
             starts.update({f'trusted_{k}': v
                            for k, v in turned_hypotheses(self._trusted, model).items()})
+        # Last: a live frame's budget ends before them, as before they were added.
+        starts.update(swapped_fingers(first.fit.theta, model))
         quick, spent = None, 0
         reserve_s = first.fit.timings_s.get('fit', 0.0)
         for name, theta in starts.items():

@@ -1,13 +1,15 @@
-"""Finger-wise search: the states of one finger, and the search bringing a finger back."""
+"""Finger-wise search: the states of one finger, the search bringing a finger back, and the
+one-shot search ending with it."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from hand_tracker_ros.core.frames import FrameSet
-from hand_tracker_ros.model.layout import FINGERS, Layout
+from hand_tracker_ros.model.layout import FINGERS, FLEXIONS, Layout
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
+from hand_tracker_ros.tracking import initialize as initialize_module
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
 from hand_tracker_ros.tracking.fingers import (
     FINGER_STATES,
@@ -15,6 +17,7 @@ from hand_tracker_ros.tracking.fingers import (
     search_fingers,
     short_fit,
 )
+from hand_tracker_ros.tracking.initialize import InitConfig
 
 
 def test_a_finger_state_sets_that_finger_and_nothing_else(hand_model) -> None:
@@ -22,14 +25,14 @@ def test_a_finger_state_sets_that_finger_and_nothing_else(hand_model) -> None:
     theta[Layout.index('middle_mcp_abd')] = 0.1
     for finger in FINGERS:
         states = finger_states(theta, finger, hand_model)
-        assert set(states) == {f'{finger}_{name}' for name in FINGER_STATES}
+        assert set(states) == {f'{finger}_{name}' for name in ('extended', 'curled', 'closed')}
         own = np.zeros(Layout.P, bool)
         own[Layout.per_finger[finger]] = True
         for name, start in states.items():
             np.testing.assert_array_equal(start[~own], theta[~own])
-            expected = np.deg2rad(FINGER_STATES[name.removeprefix(f'{finger}_')])
-            # MCP flexion, abduction 0, PIP, DIP
-            np.testing.assert_allclose(start[own], [expected[0], 0.0, *expected[1:]])
+            degrees = FINGER_STATES[name.removeprefix(f'{finger}_')]
+            mcp, pip, dip = (np.deg2rad(degrees[f'{finger}_{j}']) for j in FLEXIONS)
+            np.testing.assert_allclose(start[own], [mcp, 0.0, pip, dip])   # Layout order
 
 
 @pytest.mark.slow
@@ -52,7 +55,35 @@ def test_the_search_brings_a_finger_in_a_wrong_state_back(hand_model) -> None:
         keypoints = hand_model.pose(theta, jacobian=False).keypoints_m
         return 1e3 * float(np.linalg.norm(keypoints - frame.keypoints_m, axis=1).mean())
 
-    best_score, best = search_fingers(pipeline.tracker, observations, start, score)
     alone = short_fit(pipeline.tracker, observations, start)
     assert min(error_mm(start), error_mm(alone.theta)) > 12.0
+    best_score, best = search_fingers(pipeline.tracker, observations,
+                                      (score(alone), alone.theta), score)
     assert error_mm(best) < 7.0 and best_score > max(0.9, score(alone))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('finger_search', [True, False])
+def test_the_one_shot_search_ends_with_the_finger_search_when_configured(
+        hand_model, monkeypatch, finger_search) -> None:
+    sequence = SyntheticSequence(SynthConfig(motion='random', n_frames=1, seed=2), hand_model)
+    frame = sequence.frame(0)
+    pipeline = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())
+    observations, _ = pipeline.observe(FrameSet(frame.stamp_ns, frame.images))
+    pipeline.close()
+    calls = []
+    found = frame.theta + 0.01
+
+    def spy(tracker, observations, start, score):
+        calls.append(start)
+        return 2.0, found
+
+    monkeypatch.setattr(initialize_module, 'search_fingers', spy)
+    theta = initialize_module.initialize(pipeline.tracker, observations,
+                                         InitConfig(finger_search=finger_search))
+    assert len(calls) == int(finger_search)
+    if finger_search:           # it starts from the search's best, and its result is kept
+        assert 0.0 <= calls[0][0] <= 1.0 and calls[0][1].shape == theta.shape
+        np.testing.assert_array_equal(theta, found)
+    else:
+        assert not np.array_equal(theta, found)

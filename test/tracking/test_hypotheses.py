@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from hand_tracker_ros.geometry.rotations import rot_y, rot_z
-from hand_tracker_ros.model.layout import FINGERS, Layout
+from hand_tracker_ros.model.layout import FINGERS, FLEXIONS, Layout
 from hand_tracker_ros.tracking.hypotheses import (
     FINGER_POSES,
-    FLEXIONS,
     TURNS,
     constant_velocity,
     finger_hypotheses,
@@ -90,12 +89,22 @@ def test_swapped_fingers_exchange_two_neighbours_flexions_and_nothing_else(hand_
         theta[Layout.index(f'{finger}_mcp_abd')] = 0.1
     starts = swapped_fingers(theta, hand_model)
     assert set(starts) == {'swap_index_middle', 'swap_middle_ring', 'swap_ring_pinky'}
+    flexion = {f: theta[[Layout.index(f'{f}_{j}') for j in FLEXIONS]] for f in FINGERS}
     for first, second in zip(FINGERS[:-1], FINGERS[1:]):
-        start = starts[f'swap_{first}_{second}']
-        expected = theta.copy()
-        for joint in FLEXIONS:
-            a, b = Layout.index(f'{first}_{joint}'), Layout.index(f'{second}_{joint}')
-            expected[a], expected[b] = theta[b], theta[a]
-        for finger in (first, second):
-            expected[Layout.index(f'{finger}_mcp_abd')] = 0.0
-        np.testing.assert_array_equal(start, expected)
+        name = f'swap_{first}_{second}'
+        start = starts[name]
+        changed = {Layout.index(f'{f}_{j}') for f in (first, second)
+                   for j in (*FLEXIONS, 'mcp_abd')}
+        kept = [i for i in range(Layout.P) if i not in changed]
+        np.testing.assert_array_equal(start[kept], theta[kept])
+        np.testing.assert_array_equal(start[[Layout.index(f'{first}_{j}') for j in FLEXIONS]],
+                                      flexion[second])
+        np.testing.assert_array_equal(start[[Layout.index(f'{second}_{j}') for j in FLEXIONS]],
+                                      flexion[first])
+        assert start[Layout.index(f'{first}_mcp_abd')] == start[
+            Layout.index(f'{second}_mcp_abd')] == 0.0
+        # Swapping again gives back the start with the two abductions at 0.
+        back = swapped_fingers(start, hand_model)[name]
+        np.testing.assert_array_equal(back[kept], theta[kept])
+        np.testing.assert_array_equal(back[[Layout.index(f'{first}_{j}') for j in FLEXIONS]],
+                                      flexion[first])
