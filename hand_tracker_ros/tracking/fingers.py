@@ -16,11 +16,21 @@ Measured (mean 3D joint error). Right after the one-shot search on those 10 sets
 with the finger search: 28.8 / 11.6, 8.7 / 4.3, 9.2 / 4.1, 5.7 / 7.9, 25.8 / 5.1,
 13.5 / 10.7, 16.6 / 5.3, 6.0 / 4.0 and 7.9 / 5.2 mm on the 9 with the palm in place; on the
 one with the palm turned wrong (30.6 mm off) it cannot help (27.2 mm both). Tracked offline
-from the automatic start (40 sets of random-motion seeds 8001-8008, held out): 4.89 -> 3.12
-mm mean, 11.4 -> 7.8 mm over the first 10 sets, sets more than 15 mm off 8.4 -> 1.6 %. The
+from the automatic start (40 sets of random-motion seeds 8001-8008, held out), as the
+session runs it (below): 4.89 -> 3.35 mm mean, 11.4 -> 8.8 mm over the first 10 sets, sets
+more than 15 mm off 8.4 -> 2.5 %. The
 confidence does not rank the states of one finger reliably (on one set a closed index finger
 11 mm off scored 0.915, a curled one 4.6 mm off 0.887), so a finger can also end worse
 (5.7 -> 7.9 mm above).
+
+The session runs it only from a search result it would report TRACKING (confidence at least
+``failure.lost_below``): from a less confident one the palm is likely wrong as well, and
+the finger states can make a wrong palm look confident. With 2 cameras (robustness suite,
+seeds 300-303) the finger search from any result gave 10.06 mm mean and flagged LOST 18 of
+24 frames more than 30 mm off (a restart's 49 mm fit scored 0.87 after it); from confident
+results only 8.93 mm and 23 of 26 (without the finger search 10.03 mm, 19 of 20). On seeds
+8001-8008 above the threshold costs 0.23 mm (3.35 against 3.12 mm from any result, 7.8
+instead of 8.8 mm over the first 10 sets): seed 8003 started below it and lost its gain.
 
 The thumb is left out. A first version had three thumb states (out, curled, across the
 palm) and also refitted the search's best with a short fit: 3.02 mm, 7.4 mm and 2.5 % on

@@ -206,10 +206,14 @@ def ranked_hypotheses(tracker: HandTracker, observations: FrameObservations,
 
 def initialize(tracker: HandTracker, observations: FrameObservations,
                config: InitConfig = InitConfig(),
-               score: Callable[[Fit], float] | None = None) -> FloatArray:
+               score: Callable[[Fit], float] | None = None,
+               fingers_from: float = 0.0) -> FloatArray:
     """A pose of the hand seen in ``observations``; leaves ``tracker`` reset to it.
 
     ``score`` ranks the refined hypotheses (higher is better); by default the silhouette IoU.
+    The finger search (step 4) runs only from a best fit that scores at least
+    ``fingers_from`` (:mod:`.fingers`: below what the caller trusts, the palm is likely wrong
+    too, and finger states can make a wrong palm look confident).
     """
     center = VisualHull(tracker.cameras).locate(observations, config.min_mask_px)
     ranked = ranked_hypotheses(tracker, observations, center, config)
@@ -228,7 +232,7 @@ def initialize(tracker: HandTracker, observations: FrameObservations,
     quick.sort(key=lambda fit: -score(fit))
     finals = [refined(fit.theta, config.refine_frames, None) for fit in quick[:config.refine_best]]
     best_score, best = max(((score(fit), fit.theta) for fit in finals), key=lambda item: item[0])
-    if config.finger_search:
+    if config.finger_search and best_score >= fingers_from:
         best_score, best = search_fingers(tracker, observations, (best_score, best), score)
     LOG.info('initialized at %s (score %.2f)', np.round(center, 3), best_score)
     tracker.reset(best)

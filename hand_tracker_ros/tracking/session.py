@@ -257,7 +257,8 @@ class TrackingSession:
         t0 = time.perf_counter()
         if self._searches(restart):
             initialize(self.tracker, observations, self.config.init,
-                       score=lambda fit: self._judge('search', fit, observations).confidence)
+                       score=lambda fit: self._judge('search', fit, observations).confidence,
+                       fingers_from=self.config.failure.lost_below)
         elif self._initial is not None:
             self.tracker.reset(self._initial)
         else:
