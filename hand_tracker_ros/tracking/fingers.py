@@ -13,15 +13,14 @@ the best so far becomes the base of the next fingers' starts (coordinate search)
 fits, about 0.25 s at 4 x 320x240 on 2 cores.
 
 Measured (mean 3D joint error). Right after the one-shot search on those 10 sets, without /
-with the finger search: 28.8 / 11.6, 8.7 / 4.3, 9.2 / 4.1, 5.7 / 7.9, 25.8 / 5.1,
-13.5 / 10.7, 16.6 / 5.3, 6.0 / 4.0 and 7.9 / 5.2 mm on the 9 with the palm in place; on the
-one with the palm turned wrong (30.6 mm off) it cannot help (27.2 mm both). Tracked offline
-from the automatic start (40 sets of random-motion seeds 8001-8008, held out), as the
-session runs it (below): 4.89 -> 3.35 mm mean, 11.4 -> 8.8 mm over the first 10 sets, sets
-more than 15 mm off 8.4 -> 2.5 %. The
-confidence does not rank the states of one finger reliably (on one set a closed index finger
-11 mm off scored 0.915, a curled one 4.6 mm off 0.887), so a finger can also end worse
-(5.7 -> 7.9 mm above).
+with the finger search (run from any result): 28.8 / 11.6, 8.7 / 4.3, 9.2 / 4.1, 5.7 / 7.9,
+25.8 / 5.1, 13.5 / 10.7, 16.6 / 5.3, 6.0 / 4.0 and 7.9 / 5.2 mm on the 9 with the palm in
+place; on the one with the palm turned wrong (30.6 mm off) it cannot help (27.2 mm both).
+Tracked offline from the automatic start (40 sets of random-motion seeds 8001-8008, held
+out), as the session runs it (below): 4.89 -> 3.35 mm mean, 11.4 -> 8.8 mm over the first 10
+sets, sets more than 15 mm off 8.4 -> 2.5 %. The confidence does not rank the states of one
+finger reliably (on one set a closed index finger 11 mm off scored 0.915, a curled one
+4.6 mm off 0.887), so a finger can also end worse (5.7 -> 7.9 mm above).
 
 The session runs it only from a search result it would report TRACKING (confidence at least
 ``failure.lost_below``): from a less confident one the palm is likely wrong as well, and
