@@ -31,8 +31,7 @@ NEUTRAL_THETA: tuple[float, ...] = tuple(NEUTRAL_RAD.get(name, 0.0) for name in 
 # A relaxed hand: joints slightly flexed (deg), ours.
 RELAXED_DEG: dict[str, float] = {
     'thumb_cmc_flex': 5.0, 'thumb_cmc_abd': 20.0, 'thumb_mcp_flex': 10.0, 'thumb_ip_flex': 10.0,
-    **{f'{f}_{j}': v for f in FINGERS for j, v in (('mcp_flex', 10.0), ('pip_flex', 15.0),
-                                                     ('dip_flex', 8.0))},
+    **{f'{f}_{j}': v for f in FINGERS for j, v in zip(FLEXIONS, (10.0, 15.0, 8.0))},
 }
 
 # Fingers half closed (deg), ours: halfway between RELAXED_DEG and a fist.

@@ -52,8 +52,9 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.model.layout import Layout
+from hand_tracker_ros.tracking.fingers import short_fit
 from hand_tracker_ros.tracking.initialize import InitConfig, VisualHull, ranked_hypotheses
-from hand_tracker_ros.tracking.schedule import QUICK, rounds
+from hand_tracker_ros.tracking.schedule import rounds
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
 
@@ -127,8 +128,7 @@ class Acquisition:
         while self._pending:
             t0 = time.monotonic()
             theta = self._centred(self._pending.pop(0), centre)
-            self._tracker.reset(theta)
-            fit = self._tracker.fit(observations, plan=QUICK, separate=False)
+            fit = short_fit(self._tracker, observations, theta)
             score = self._score(fit, observations)
             if best is None or score > best[0]:
                 best = (score, fit)

@@ -73,9 +73,10 @@ def finger_states(theta: FloatArray, finger: str, model: HandModel) -> dict[str,
     the joint limits; name -> (P,)."""
     out = {}
     joints = [f'{finger}_{joint}' for joint in FLEXIONS]
+    ids = [Layout.index(joint) for joint in joints]
     for name, degrees in FINGER_STATES.items():
         start = np.array(theta, np.float64)
-        start[[Layout.index(joint) for joint in joints]] = np.deg2rad([degrees[j] for j in joints])
+        start[ids] = np.deg2rad([degrees[joint] for joint in joints])
         start[Layout.index(f'{finger}_mcp_abd')] = 0.0
         out[f'{finger}_{name}'] = np.clip(start, model.lower, model.upper)
     return out
