@@ -22,6 +22,11 @@ tracked offline and the same bag played through the graph follow the same rules:
    neighbours' flexions swapped: :func:`.hypotheses.finger_hypotheses`,
    :func:`.hypotheses.swapped_fingers`); the most confident of them gets the full schedule
    and replaces the fit if it is more confident. This costs time only on doubtful frames.
+   A live frame (one with a deadline) is not refitted unless ``live_recovery``: the
+   refits took 100-200 ms in the live graph on 2 cores, the sets skipped meanwhile made the
+   next frames doubtful too, and without them the realtime demo collapsed less often (the
+   figures are in :meth:`TrackingSession.step`). A live frame that stays LOST counts towards
+   step 5 instead.
 5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
    ``failure.lost_below``: the search runs on the current frame (with a deadline: the live
    search starts from the last fit, on the next set); a session that may not search resets
@@ -77,6 +82,9 @@ class SessionConfig:
 
     predict: bool = param(True, 'start each frame from the constant-velocity prediction')
     recovery: bool = param(True, 'refit doubtful frames from the recovery hypotheses')
+    live_recovery: bool = param(False, 'also refit a live frame (with a deadline) that would '
+                                'be LOST, within acquisition.step_budget_ms (off: it stays '
+                                'LOST and counts towards the search; module docstring)')
     failure: FailureConfig = nested(FailureConfig)
     evidence: EvidenceConfig = nested(EvidenceConfig)
     init: InitConfig = nested(InitConfig)
@@ -153,10 +161,11 @@ class TrackingSession:
 
         ``deadline_s`` (``time.monotonic``) marks a live frame. It caps the frame's main fit
         (the rounds that :meth:`HandTracker.fit` may start); the frame is refitted from the
-        recovery hypotheses only below ``failure.lost_below`` (not already below
-        ``failure.recover_below``), within ``acquisition.step_budget_ms``; a search is
-        spread over the sets (:mod:`.acquisition`). Without it, recovery and the one-shot
-        search spend what they need.
+        recovery hypotheses only with ``live_recovery``, and then only below
+        ``failure.lost_below`` (not already below ``failure.recover_below``), within
+        ``acquisition.step_budget_ms``; a search is spread over the sets
+        (:mod:`.acquisition`). Without it, recovery and the one-shot search spend what they
+        need.
         """
         start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -172,15 +181,21 @@ class TrackingSession:
                                                    deadline_s), observations)
         iterations = judged.fit.iterations
         failure = self.config.failure
-        # A live frame is refitted only when it would be LOST, and within the acquisition's
-        # step budget: a doubtful frame's full recovery (a dozen fits when this was measured,
-        # about 0.3 s on 2 cores; 15 short fits and a full one now) skipped the next ten
-        # sets, and the larger step to them made those doubtful too (simulated at 30 Hz,
-        # tracking from the true pose went that way from 79 % of the sets estimated to 26 %
-        # on one seed).
+        # A live frame is not refitted by default. A doubtful frame's full recovery (a dozen
+        # fits, about 0.3 s on 2 cores) skipped the next ten sets, and the larger step to
+        # them made those doubtful too (simulated at 30 Hz, tracking from the true pose went
+        # that way from 79 % of the sets estimated to 26 % on one seed). Refitting only
+        # frames that would be LOST, within the acquisition's step budget, still cost
+        # 100-200 ms per refit in the live graph. The realtime demo (`hand-tracker demo
+        # --realtime`, one run of each setting per seed) without and with the refits: seeds
+        # 3 and 19 twice, 7, 23, 31, 37, 41, 43 (looked at while deciding): 51 % against 36 %
+        # of the sets tracked on average, more in every pair; held-out seeds 51, 53, 57, 59,
+        # 61, 67: 44 % against 41 %, three better and three worse. Over the 16 pairs no run
+        # without the refits tracked under 30 % of the sets, four with them did (1-27 %).
         live = deadline_s is not None
         recover_below = failure.lost_below if live else failure.recover_below
-        if self.config.recovery and judged.confidence < recover_below:
+        if (self.config.recovery and judged.confidence < recover_below
+                and (not live or self.config.live_recovery)):
             t0 = time.perf_counter()
             budget_end = (time.monotonic() + self.config.acquisition.step_budget_ms / 1e3
                           if live else None)

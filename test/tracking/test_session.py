@@ -1,6 +1,8 @@
 """The tracking session: confidence from the image evidence, recovery, LOST and search."""
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -126,3 +128,20 @@ def test_a_session_that_may_not_search_must_be_reset(hand_model, scene) -> None:
     with pytest.raises(RuntimeError, match='call reset'):
         pipeline.step(FrameSet(frames[0].stamp_ns, frames[0].images))
     pipeline.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('live_recovery', [False, True])
+def test_a_live_frame_is_refitted_only_with_live_recovery(hand_model, scene,
+                                                          live_recovery) -> None:
+    sequence, frames = scene
+    pipeline = _pipeline(hand_model, sequence, **{'session.live_recovery': live_recovery})
+    pipeline.observe(FrameSet(frames[0].stamp_ns, frames[0].images))
+    observations, _ = pipeline.observe(FrameSet(frames[1].stamp_ns, frames[1].images))
+    pipeline.session.reset(turned_hypotheses(frames[0].theta, hand_model)['flip_finger_axis'])
+    result = pipeline.session.step(observations, deadline_s=time.monotonic() + 0.033)
+    pipeline.close()
+    # The flipped hand's fit would be LOST: refitted (within the live budget) only on request.
+    assert ('recovery' in result.timings_s) == live_recovery
+    if not live_recovery:
+        assert result.status == TrackStatus.LOST and pipeline.session.lost_frames == 1
