@@ -24,9 +24,10 @@ seeds 601 and 602 from a search gave 3 % of the sets.
 
 ``--slowdown`` stands in for what the loop leaves out: the clock advances by the steps' wall
 time times it, and the deadlines shrink as much. In the composed graph a tracking fit took a
-median of 49 ms where this loop's take 33-36 ms (random motion, from the true pose), about
-1.4x. The policy is that sensitive to it: on seeds 9201-9208 at 1.6x, from a search 19 % of
-the sets were tracked on average (no seed over 49 %), from the true pose 50 %.
+median of 41.5 ms where this loop's take 33-36 ms (random motion, from the true pose), about
+1.2x (distributed 65 ms, about 1.9x), and a set of the live search about twice this
+loop's. The policy is that sensitive to it: on seeds 9201-9208 at 1.6x, from a search 19 %
+of the sets were tracked on average (no seed over 49 %), from the true pose 50 %.
 """
 from __future__ import annotations
 

@@ -190,8 +190,11 @@ class TrackingSession:
         # --realtime`, one run of each setting per seed) without and with the refits: seeds
         # 3 and 19 twice, 7, 23, 31, 37, 41, 43 (looked at while deciding): 51 % against 36 %
         # of the sets tracked on average, more in every pair; held-out seeds 51, 53, 57, 59,
-        # 61, 67: 44 % against 41 %, three better and three worse. Over the 16 pairs no run
-        # without the refits tracked under 30 % of the sets, four with them did (1-27 %).
+        # 61, 67: 44 % against 41 %, three better and three worse; seeds 0, 3, 11, 23: 52 %
+        # against 42 %, three better. Over the 20 pairs 16 were better or equal; under 30 %
+        # of the sets: 5 of the 20 runs with the refits (1-27 %), none of those without (but
+        # an unpaired run of seed 23 without them tracked 9 %: runs of one seed vary by
+        # 20-30 points).
         live = deadline_s is not None
         recover_below = failure.lost_below if live else failure.recover_below
         if (self.config.recovery and judged.confidence < recover_below
