@@ -28,8 +28,7 @@ graph), and the hand moves on meanwhile. The simulated live loop
 mean of 62 % at 120 ms (three seeds under 40 %), 67 % at 80, 76 % at 60 (none under 50 %)
 and 76 % at 40 (one at 0 %); the realtime demo (``hand-tracker demo --realtime``, seeds
 0, 3, 7, 11, 19, 23) then tracked a median of 46 % of the sets at 60 ms against 29 % at
-120, better on five of the six. The session's live recovery, when a set leaves time for it,
-shares this budget.
+120, better on five of the six. The session's live recovery shares this budget.
 
 A first version made a short fit of the carried fit too and gave the full schedule to the
 most confident short fit: one short fit more per set, and no better in the simulated live

@@ -22,12 +22,6 @@ tracked offline and the same bag played through the graph follow the same rules:
    neighbours' flexions swapped: :func:`.hypotheses.finger_hypotheses`,
    :func:`.hypotheses.swapped_fingers`); the most confident of them gets the full schedule
    and replaces the fit if it is more confident. This costs time only on doubtful frames.
-   A live frame (one with a deadline) is refitted only when it would be LOST, and only with
-   the time its set has left before the deadline: at real time that is none (refits took
-   100-200 ms in the live graph on 2 cores, the sets skipped meanwhile made the next frames
-   doubtful too, and without them the realtime demo collapsed less often; the figures are
-   in a comment in :meth:`TrackingSession.step`), played slowly it is enough. A live frame
-   that stays LOST counts towards step 5 instead.
 5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
    ``failure.lost_below``: the search runs on the current frame (with a deadline: the live
    search starts from the last fit, on the next set); a session that may not search resets
@@ -160,10 +154,9 @@ class TrackingSession:
         ``deadline_s`` (``time.monotonic``) marks a live frame. It caps the frame's main fit
         (the rounds that :meth:`HandTracker.fit` may start); the frame is refitted from the
         recovery hypotheses only below ``failure.lost_below`` (not already below
-        ``failure.recover_below``), and only when the time left before ``deadline_s`` (at most
-        ``acquisition.step_budget_ms``) covers a refit; a search is spread over the sets
-        (:mod:`.acquisition`). Without it, recovery and the one-shot search spend what they
-        need.
+        ``failure.recover_below``), within ``acquisition.step_budget_ms``; a search is
+        spread over the sets (:mod:`.acquisition`). Without it, recovery and the one-shot
+        search spend what they need.
         """
         start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -179,33 +172,18 @@ class TrackingSession:
                                                    deadline_s), observations)
         iterations = judged.fit.iterations
         failure = self.config.failure
-        # A live frame is refitted only when it would be LOST, and only with the time its
-        # set has left: the recovery starts only when what is left before the deadline
-        # covers a full refit (the frame's own fit time), and its budget ends at the
-        # deadline or after `acquisition.step_budget_ms`. At real time the fit uses up the
-        # set's period, so live frames are not refitted; played slowly, they are, as before.
-        # A doubtful frame's full recovery (a dozen fits when this was measured, about 0.3 s
-        # on 2 cores) had skipped the next ten sets, and the larger step to them made those
-        # doubtful too (simulated at 30 Hz, tracking from the true pose went that way from
-        # 79 % of the sets estimated to 26 % on one seed). Refitting only frames that would
-        # be LOST, within the step budget alone, still cost 100-200 ms per refit in the live
-        # graph. The realtime demo (`hand-tracker demo --realtime`, one run of each setting
-        # per seed) without and with those refits: seeds 3 and 19 twice, 7, 23, 31, 37, 41,
-        # 43 (looked at while deciding): 51 % against 36 % of the sets tracked on average,
-        # more in every pair; held-out seeds 51, 53, 57, 59, 61, 67: 44 % against 41 %,
-        # three better and three worse; seeds 0, 3, 11, 23: 52 % against 42 %, three better.
-        # Over the 20 pairs 16 were better or equal; under 30 % of the sets: 5 of the 20
-        # runs with the refits (1-27 %), none of those without (but an unpaired run of seed
-        # 23 without them tracked 9 %: runs of one seed vary by 20-30 points).
+        # A live frame is refitted only when it would be LOST, and within the acquisition's
+        # step budget: a doubtful frame's full recovery (a dozen fits when this was measured,
+        # about 0.3 s on 2 cores; 15 short fits and a full one now) skipped the next ten
+        # sets, and the larger step to them made those doubtful too (simulated at 30 Hz,
+        # tracking from the true pose went that way from 79 % of the sets estimated to 26 %
+        # on one seed).
         live = deadline_s is not None
         recover_below = failure.lost_below if live else failure.recover_below
-        budget_end, time_left = None, True
-        if deadline_s is not None:
-            now = time.monotonic()
-            time_left = deadline_s - now > judged.fit.timings_s.get('fit', 0.0)
-            budget_end = min(deadline_s, now + self.config.acquisition.step_budget_ms / 1e3)
-        if self.config.recovery and judged.confidence < recover_below and time_left:
+        if self.config.recovery and judged.confidence < recover_below:
             t0 = time.perf_counter()
+            budget_end = (time.monotonic() + self.config.acquisition.step_budget_ms / 1e3
+                          if live else None)
             judged, spent = self._recover(judged, observations, timings, budget_end)
             iterations += spent
             timings['recovery'] = time.perf_counter() - t0

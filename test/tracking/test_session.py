@@ -131,18 +131,15 @@ def test_a_session_that_may_not_search_must_be_reset(hand_model, scene) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('budget_s', [0.033, 10.0])
-def test_a_live_frame_is_refitted_only_when_its_set_has_time_left(hand_model, scene,
-                                                                  budget_s) -> None:
+def test_a_live_frame_that_would_be_lost_is_refitted_within_the_search_budget(hand_model,
+                                                                              scene) -> None:
     sequence, frames = scene
-    pipeline = _pipeline(hand_model, sequence)
+    pipeline = _pipeline(hand_model, sequence, **{'session.acquisition.step_budget_ms': 1.0})
     pipeline.observe(FrameSet(frames[0].stamp_ns, frames[0].images))
     observations, _ = pipeline.observe(FrameSet(frames[1].stamp_ns, frames[1].images))
     pipeline.session.reset(turned_hypotheses(frames[0].theta, hand_model)['flip_finger_axis'])
-    result = pipeline.session.step(observations, deadline_s=time.monotonic() + budget_s)
+    result = pipeline.session.step(observations, deadline_s=time.monotonic() + 0.033)
     pipeline.close()
-    # From the flipped hand the fit would be LOST (confidence < 0.1): at a 30 Hz set's budget
-    # the fit uses it all and the frame stays LOST; with seconds to spare it is refitted.
-    assert ('recovery' in result.timings_s) == (budget_s > 1.0)
-    if budget_s < 1.0:
-        assert result.status == TrackStatus.LOST and pipeline.session.lost_frames == 1
+    # From the flipped hand the fit would be LOST (confidence < 0.1), so it is refitted; with
+    # a 1 ms budget only the first start gets a short fit before the refit.
+    assert 'recovery' in result.timings_s and result.recovered_from in ('', 'last')
