@@ -37,7 +37,8 @@ def test_launch_plays_tracks_records_and_stops_at_the_end_of_the_bag(tmp_path: P
     # The player starts once the graph is connected and the graph drains after the bag, so
     # every set is tracked (the bag plays at 0.6 sets/s: a set needs ~0.1 s, but one the
     # session doubts is refitted from its recovery hypotheses, ~1 s on a loaded machine).
-    assert counts.get('/hand/state') == N_FRAMES, counts
+    # On a failure, the tracker's shutdown line in the output says where the sets went.
+    assert counts.get('/hand/state') == N_FRAMES, (counts, result.stdout[-3000:])
     assert counts.get('/hand/joint_states') == N_FRAMES, counts
     assert counts.get('/tf') == N_FRAMES and counts.get('/hand/markers') == N_FRAMES, counts
     assert counts.get('/hand/robot_description') == 1, counts      # latched, recorded once
