@@ -90,8 +90,8 @@ def search_fingers(tracker: HandTracker, observations: FrameObservations,
     scores higher. Leaves ``tracker`` reset to the last start tried."""
     best_score, best = start
     for finger in FINGERS:
-        for start in finger_states(best, finger, tracker.model).values():
-            fit = short_fit(tracker, observations, start)
+        for candidate in finger_states(best, finger, tracker.model).values():
+            fit = short_fit(tracker, observations, candidate)
             value = score(fit)
             if value > best_score:
                 best_score, best = value, fit.theta
