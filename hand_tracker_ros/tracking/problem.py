@@ -70,11 +70,16 @@ def weighted_rows(terms: Sequence[Term], correspondences: Sequence[object],
     for term, corr, scale in zip(terms, correspondences, scales):
         if jacobian:
             r, J = term.energy.linearize(posed, corr)
-            jacs.append(scale * J)
+            jacs.append(J)
         else:
             r = term.energy.residuals(posed, corr)
         rows.append(scale * r)
     r_all = np.concatenate(rows) if rows else np.zeros(0)
     if not jacobian:
         return r_all, None
-    return r_all, (np.vstack(jacs) if jacs else np.zeros((0, n_params)))
+    if not jacs:
+        return r_all, np.zeros((0, n_params))
+    # Stacked first, then scaled in place: one pass over J instead of a scaled copy per term.
+    J_all = np.vstack(jacs)
+    J_all *= np.repeat(scales, [r.size for r in rows])[:, None]
+    return r_all, J_all

@@ -114,7 +114,7 @@ class HandTracker:
 
     def views(self, posed: PosedHand) -> tuple[ModelView, ...]:
         """The model rendered into every camera."""
-        return model_views(posed, self.model.faces, self._edges, self.cameras)
+        return model_views(posed, self._edges, self.cameras)
 
     def reset(self, theta: FloatArray | None = None) -> None:
         """Forget the history; start from ``theta`` (or wait for an initialization)."""

@@ -65,7 +65,7 @@ class Scene:
         self.previous = PreviousFrame(posed_prev, self.views(posed_prev), self.theta_prev[None])
 
     def views(self, posed: object) -> tuple:
-        return model_views(posed, self.model.faces, self.edges, tuple(self.rig))
+        return model_views(posed, self.edges, tuple(self.rig))
 
     def context(self, theta: np.ndarray, *, previous: bool = True,
                 flows: list | None = None) -> RoundContext:

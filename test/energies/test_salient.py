@@ -78,7 +78,7 @@ class Scene:
         centre = -model.pose(model.neutral_theta(), jacobian=False).vertices_m.mean(axis=0)
         self.theta_true = model.neutral_theta(tuple(centre))
         posed = model.pose(self.theta_true, jacobian=False)
-        self.truth_views = model_views(posed, model.faces, self.edges, tuple(self.rig))
+        self.truth_views = model_views(posed, self.edges, tuple(self.rig))
         self.tips_uv = [view.raster.uv_px[model.fingertip_vertex_ids]
                         for view in self.truth_views]
         self.tips_visible = [view.raster.visible_vertices[model.fingertip_vertex_ids]
@@ -96,7 +96,7 @@ class Scene:
 
     def context(self, theta: np.ndarray, detections: list[SalientDetections]) -> RoundContext:
         posed = self.model.pose(theta)
-        views = model_views(posed, self.model.faces, self.edges, tuple(self.rig))
+        views = model_views(posed, self.edges, tuple(self.rig))
         # The salient term reads only the camera and the detections of an observation.
         cams = tuple(CameraObservation(camera, None, tips)
                      for camera, tips in zip(self.rig, detections))

@@ -123,7 +123,7 @@ def _context(scene, theta: np.ndarray, observations: FrameObservations | None = 
              ) -> RoundContext:
     model, rig, edges, _, obs = scene
     posed = model.pose(theta)
-    return RoundContext(posed, model_views(posed, model.faces, edges, list(rig)),
+    return RoundContext(posed, model_views(posed, edges, list(rig)),
                         observations or obs, None)
 
 

@@ -5,9 +5,20 @@ import numpy as np
 import pytest
 
 from hand_tracker_ros.geometry.rotations import rot_x, rot_y, rot_z
-from hand_tracker_ros.model.kinematics import forward_kinematics
+from hand_tracker_ros.model.kinematics import (
+    MOVES,
+    forward_kinematics,
+    points_jacobian,
+    transform_points,
+)
 from hand_tracker_ros.model.layout import PARAM_NAMES, Layout
-from hand_tracker_ros.model.skeleton import BONE_NAMES, FINGER_NAMES, KEYPOINT_NAMES, B
+from hand_tracker_ros.model.skeleton import (
+    BONE_NAMES,
+    FINGER_NAMES,
+    KEYPOINT_BONES,
+    KEYPOINT_NAMES,
+    B,
+)
 
 
 def test_layout_names_and_masks() -> None:
@@ -130,3 +141,16 @@ def test_fk_kernel_matches_the_numpy_form(model, random_theta) -> None:
         ref = _numpy_forward_kinematics(model.rest, theta)
         for got, want in zip((fk.bone_transforms, fk.axes, fk.pivots), ref):
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-14)
+
+
+def test_points_jacobian_kernel_matches_the_numpy_form(model, random_theta) -> None:
+    """The kernel against ``np.cross`` of every hinge, masked by the bones each DOF moves."""
+    theta = random_theta(np.random.default_rng(12))
+    fk = forward_kinematics(model.rest, theta)
+    bones = np.asarray(KEYPOINT_BONES)
+    points = transform_points(fk, bones, model.keypoint_local_m)
+    cols = np.cross(fk.axes[None, :, :], points[:, None, :] - fk.pivots[None, :, :])
+    cols[:, :3, :] = np.eye(3)
+    cols *= MOVES.T[bones][:, :, None]
+    np.testing.assert_array_equal(points_jacobian(fk, bones, points),
+                                  cols.transpose(0, 2, 1))
