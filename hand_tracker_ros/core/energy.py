@@ -18,10 +18,11 @@ Cost convention: a term's cost is ``0.5 * weight * |r|^2``.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol, TypeVar
+from typing import Any, Protocol, TypeVar, runtime_checkable
 
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.core.context import RoundContext
+from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.model.hand import PosedHand
 
 #: The correspondences of one term for one round (an immutable value, the term's own type).
@@ -60,6 +61,17 @@ class Energy(Protocol[C]):
     def jacobian_vertices(self, correspondences: C) -> IntArray:
         """Mesh vertices (K,) int64 whose rows of ``posed.vertices_jac`` ``linearize`` reads
         (repeats allowed); the problem skins only the union of these with their Jacobian."""
+
+
+@runtime_checkable
+class PreparesFrames(Protocol):
+    """An energy with per-frame work that does not depend on the pose (e.g. lookup tables of
+    the observed mask), done once per frame set where it is observed: on the observing
+    thread, while the previous set is being fitted on another."""
+
+    def prepare(self, observations: FrameObservations) -> None:
+        """Compute and cache in ``observations`` what later rounds of the frame read; the
+        results are those the rounds would compute themselves."""
 
 
 @dataclass(frozen=True)

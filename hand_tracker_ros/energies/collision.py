@@ -146,7 +146,8 @@ class CollisionEnergy:
         both = np.stack([self.faces[intruder].ravel(), np.repeat(receiver, 3)], axis=1)
         if keep is not None:
             both = np.concatenate([both, np.stack([keep.vertex_ids, keep.face_ids], axis=1)])
-        both = np.unique(both, axis=0)
+        if len(both):   # np.unique(axis=0) costs ~40 us even on nothing, the usual case
+            both = np.unique(both, axis=0)
         vertex_ids, face_ids = both[:, 0], both[:, 1]
         if len(vertex_ids) > self.config.max_pairs:
             rho = self._rho(vertices_m, vertex_ids, face_ids)

@@ -73,7 +73,7 @@ import numpy as np
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.context import RoundContext
-from hand_tracker_ros.core.observations import CameraObservation
+from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
 from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.model.hand import HandModel, PosedHand
@@ -166,11 +166,15 @@ def outside_targets(features: CameraFeatures, uv_px: FloatArray, max_distance_px
     target_px : (N, 2) float64
         ``t`` where matched, 0 elsewhere.
     """
-    reach = int(np.ceil(max_distance_px)) + 1
-    nearest = features.nearest_foreground(reach)
+    nearest = features.nearest_foreground(_reach_px(max_distance_px))
     return _outside_targets(np.ascontiguousarray(uv_px, dtype=np.float64), nearest.index,
                             nearest.window_px[0], nearest.window_px[1],
                             float(max_distance_px), float(tolerance_px))
+
+
+def _reach_px(max_distance_px: float) -> int:
+    """Window margin (px) of the nearest-foreground lookup of :func:`outside_targets`."""
+    return int(np.ceil(max_distance_px)) + 1
 
 
 # Hand-written instead of numpy: the mask test, the nearest-pixel lookup and the target were
@@ -245,6 +249,17 @@ class SilhouetteEnergy:
     def weight(self) -> float:
         """Weight of the term's cost ``0.5 * weight * |r|^2``."""
         return self.config.weight
+
+    def prepare(self, observations: FrameObservations) -> None:
+        """The masks' lookups every round reads (``CameraFeatures.nearest_foreground`` and
+        ``silhouette_px``, cached per frame): 0.6 ms per 320x240 camera, which the observing
+        thread now spends instead of the fit's first round."""
+        if not self.config.enabled:
+            return
+        for obs in observations.cameras:
+            obs.features.nearest_foreground(_reach_px(self.config.max_distance_px))
+            if self.config.data_to_model_weight > 0.0:
+                obs.features.silhouette_px  # noqa: B018 - fills the cached property
 
     def correspond(self, context: RoundContext) -> SilhouetteCorrespondences:
         """Point-to-ray matches of every camera (model to data, then data to model)."""

@@ -175,10 +175,16 @@ class TrackerNode(Node):
         set (feature frames, or image messages with ``inputs:=images``) into observations."""
         if self.config.warm_up:
             self.get_logger().info(f'JIT kernels loaded in {warm_up(self._model):.1f} s')
-        self._pipeline = LivePipeline(observe, self._track, self._on_error)
+        self._pipeline = LivePipeline(lambda synced: self._prepared(observe(synced)),
+                                      self._track, self._on_error)
         self._create_inputs()
         self.get_logger().info(f'ready: tracking with cameras {list(self.config.cameras)} '
                                f'from {self.config.inputs}')
+
+    def _prepared(self, observations: FrameObservations) -> FrameObservations:
+        """``observations`` with the tracker's per-frame work done (on the observer thread)."""
+        self._tracker.prepare(observations)
+        return observations
 
     def _init_state(self) -> None:
         cfg = self.config

@@ -41,10 +41,12 @@ class Problem:
     def function(self, correspondences: Sequence[object]) -> ResidualFunction:
         """The stacked residual function of one round, for :func:`levenberg_marquardt`."""
         scales = [math.sqrt(t.weight) for t in self.terms]
-        # Skin with the Jacobian only the vertices some row reads (a third of the mesh).
-        needed = np.unique(np.concatenate(
-            [np.zeros(0, np.int64)] + [t.energy.jacobian_vertices(c)
-                                       for t, c in zip(self.terms, correspondences)]))
+        # Skin with the Jacobian only the vertices some row reads (a third of the mesh), in
+        # ascending order; a mask over the mesh, where np.unique sorted the repeats.
+        read = np.zeros(self.model.rest_vertices_m.shape[0], dtype=bool)
+        for t, c in zip(self.terms, correspondences):
+            read[t.energy.jacobian_vertices(c)] = True
+        needed = np.flatnonzero(read)
 
         def fun(theta: FloatArray, jacobian: bool) -> tuple[FloatArray, FloatArray | None]:
             posed = self.model.pose(theta, jacobian=jacobian, jacobian_vertices=needed)

@@ -28,6 +28,7 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.core.context import CollisionPairs, PreviousFrame, RoundContext
+from hand_tracker_ros.core.energy import PreparesFrames
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.views import ModelView, model_views
 from hand_tracker_ros.energies import flow
@@ -115,6 +116,14 @@ class HandTracker:
     def views(self, posed: PosedHand) -> tuple[ModelView, ...]:
         """The model rendered into every camera."""
         return model_views(posed, self._edges, self.cameras)
+
+    def prepare(self, observations: FrameObservations) -> None:
+        """The terms' per-frame work that needs no pose (:class:`PreparesFrames`), for the
+        thread that observes a set to call before handing it to :meth:`fit`; a set that skips
+        this is fitted the same, doing that work in its first round."""
+        for term in self._terms:
+            if isinstance(term.energy, PreparesFrames):
+                term.energy.prepare(observations)
 
     def reset(self, theta: FloatArray | None = None) -> None:
         """Forget the history; start from ``theta`` (or wait for an initialization)."""

@@ -82,6 +82,26 @@ def test_pipelined_run_gives_the_estimates_of_step_by_step(hand_model, grasp) ->
     assert events == [(kind, f.stamp_ns) for f in frames[1:] for kind in ('fit', 'result')]
 
 
+def test_prepared_observations_fit_the_same_with_the_frame_work_done(hand_model, grasp) -> None:
+    """``HandTracker.prepare`` (the pipelines call it where a set is observed) fills the
+    silhouette term's per-frame lookups; a fit of unprepared observations computes the same
+    ones itself and ends at the same estimate."""
+    sequence, frames = grasp
+    fits, caches = [], []
+    for prepare in (True, False):
+        pipeline = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())
+        pipeline.tracker.prepare = (pipeline.tracker.prepare if prepare
+                                    else lambda observations: None)
+        pipeline.session.reset(frames[0].theta)
+        observations, _ = pipeline.observe(FrameSet(frames[1].stamp_ns, frames[1].images))
+        pipeline.close()
+        caches.append([set(obs.features.__dict__) for obs in observations.cameras])
+        fits.append(pipeline.tracker.fit(observations).theta)
+    assert all({'silhouette_px', '_nearest_foreground'} <= names for names in caches[0])
+    assert not any({'silhouette_px', '_nearest_foreground'} & names for names in caches[1])
+    np.testing.assert_array_equal(fits[0], fits[1])
+
+
 def test_perturbed_start_converges(hand_model, grasp) -> None:
     sequence, frames = grasp
     pipeline = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())
