@@ -33,7 +33,7 @@ from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.shape_jacobian import S, ShapeRig
 from hand_tracker_ros.render.contours import MeshEdges
-from hand_tracker_ros.tracking.problem import weighted_rows
+from hand_tracker_ros.tracking.problem import read_vertices, weighted_rows
 
 # The terms that see the hand's size in the images (the others are priors on the pose).
 IMAGE_TERMS = ('edges', 'silhouette', 'salient')
@@ -94,9 +94,8 @@ class FrameTerms:
         self.correspondences = tuple(t.energy.correspond(context) for t in self.terms)
         # The terms read only these rows (the same contract as the tracker's Problem): only
         # they are displaced and get Jacobian rows.
-        self._ids = np.unique(np.concatenate(
-            [model.fingertip_vertex_ids] + [t.energy.jacobian_vertices(c) for t, c in
-                                            zip(self.terms, self.correspondences)]))
+        self._ids = read_vertices(self.terms, self.correspondences,
+                                  model.rest_vertices_m.shape[0], model.fingertip_vertex_ids)
         self._rig = rig.subset(self._ids)
 
     def shaped(self, theta: FloatArray, x: FloatArray, *, jacobian: bool) -> ShapedPose:

@@ -252,8 +252,8 @@ class SilhouetteEnergy:
 
     def prepare(self, observations: FrameObservations) -> None:
         """The masks' lookups every round reads (``CameraFeatures.nearest_foreground`` and
-        ``silhouette_px``, cached per frame): 0.6 ms per 320x240 camera, which the observing
-        thread now spends instead of the fit's first round."""
+        ``silhouette_px``, cached per frame; 0.6 ms per 320x240 camera), so that the thread
+        observing a set computes them rather than the first round of its fit."""
         if not self.config.enabled:
             return
         for obs in observations.cameras:

@@ -95,10 +95,18 @@ def test_prepared_observations_fit_the_same_with_the_frame_work_done(hand_model,
         pipeline.session.reset(frames[0].theta)
         observations, _ = pipeline.observe(FrameSet(frames[1].stamp_ns, frames[1].images))
         pipeline.close()
-        caches.append([set(obs.features.__dict__) for obs in observations.cameras])
+        before = [dict(obs.features.__dict__) for obs in observations.cameras]
         fits.append(pipeline.tracker.fit(observations).theta)
-    assert all({'silhouette_px', '_nearest_foreground'} <= names for names in caches[0])
-    assert not any({'silhouette_px', '_nearest_foreground'} & names for names in caches[1])
+        caches.append((before, [dict(obs.features.__dict__) for obs in observations.cameras]))
+    keys = {'silhouette_px', '_nearest_foreground'}
+    prepared, unprepared = caches
+    assert all(keys <= set(cache) for cache in prepared[0])
+    # The fit read what prepare filled: no other reach was computed, the same objects kept.
+    for filled, after in zip(*prepared):
+        assert after['silhouette_px'] is filled['silhouette_px']
+        assert after['_nearest_foreground'] == filled['_nearest_foreground']
+        assert len(after['_nearest_foreground']) == 1
+    assert not any(keys & set(cache) for cache in unprepared[0])
     np.testing.assert_array_equal(fits[0], fits[1])
 
 
