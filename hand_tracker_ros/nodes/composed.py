@@ -63,29 +63,14 @@ class InProcessObserver:
 
 def compose() -> Sequence[Node]:
     """The tracker node and, with ``inputs:=images``, its features and salient_points nodes
-    (same cameras), linked in memory; the tracker warms up, then subscribes.
-
-    When building fails after a node exists (a SIGTERM during the warm-up shuts the context
-    down, and the tracker's subscriptions then fail), the nodes built so far are destroyed
-    before the error goes on: left alive, they kept the process's DDS participant from
-    being finalised, and its shared-memory segment (35 MB with the shipped Fast DDS profile)
-    stayed in ``/dev/shm`` after the process exited.
-    """
+    (same cameras), linked in memory; the tracker warms up, then subscribes."""
     tracker = TrackerNode()
     if tracker.config.inputs != 'images':
         return [tracker]
-    built: list[Node] = [tracker]
-    try:
-        cameras = tracker.config.cameras
-        features = FeaturesNode(in_process=True, cameras=cameras)
-        built.insert(0, features)
-        salient = SalientPointsNode(in_process=True, cameras=cameras)
-        built.insert(1, salient)
-        tracker.start(InProcessObserver(tracker, features, salient))
-    except BaseException:
-        for node in reversed(built):
-            node.destroy_node()
-        raise
+    cameras = tracker.config.cameras
+    features = FeaturesNode(in_process=True, cameras=cameras)
+    salient = SalientPointsNode(in_process=True, cameras=cameras)
+    tracker.start(InProcessObserver(tracker, features, salient))
     # run_node destroys the nodes in reverse: the tracker, whose pipeline threads call the
     # other two, stops first.
-    return built
+    return [features, salient, tracker]
