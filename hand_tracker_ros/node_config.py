@@ -35,6 +35,9 @@ class FeaturesNodeConfig:
     sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set; whole sets '
                                 'are served, the newest first', unit='ms', low=0.1,
                                 high=1000.0)
+    follow_plan: bool = param(True, "observe one set per plan of the tracker on "
+                              "'hand/observation_plan', in its regions of interest "
+                              '(ros_io/plans.py); without a recent plan, every set whole')
     features: FeaturesConfig = nested(FeaturesConfig)
 
 
@@ -51,6 +54,10 @@ class SalientPointsNodeConfig:
     sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set; whole sets '
                                 'are served, the newest first', unit='ms', low=0.1,
                                 high=1000.0)
+    follow_plan: bool = param(True, "detect in one set per plan of the tracker on "
+                              "'hand/observation_plan', in its regions of interest, when it "
+                              'asks for detection (ros_io/plans.py); without a recent plan, '
+                              'in every set whole')
     detector: DetectorConfig = nested(DetectorConfig)
 
 

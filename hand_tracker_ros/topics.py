@@ -21,6 +21,9 @@ hand/robot_description      std_msgs/msg/String                  the URDF, latch
 /tf                         tf2_msgs/msg/TFMessage               every URDF joint's transform
                                                                  (only while TRACKING)
 /diagnostics                diagnostic_msgs/msg/DiagnosticArray  input rates, sync, latency
+hand/observation_plan       hand_tracker_msgs/msg/ObservationPlan  distributed graph: what the
+                                                                 features and salient_points
+                                                                 processes observe next
 ==========================  ===================================  ==================================
 """
 from __future__ import annotations
@@ -58,6 +61,9 @@ MARKERS = Topic('hand/markers', 'visualization_msgs/msg/MarkerArray')
 ROBOT_DESCRIPTION = Topic('hand/robot_description', 'std_msgs/msg/String', latched=True)
 TF = Topic('/tf', 'tf2_msgs/msg/TFMessage')
 DIAGNOSTICS = Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray')
+# With inputs:=features only: the tracker's attention for the upstream processes
+# (ros_io/plans.py).
+OBSERVATION_PLAN = Topic('hand/observation_plan', 'hand_tracker_msgs/msg/ObservationPlan')
 
 # What a tracked set produces, in the order it is published and written.
 ESTIMATES = (JOINT_STATES, STATE, MARKERS, TF)

@@ -10,8 +10,10 @@ the tracker's orientation check needs), ``<cam>/mask`` (mono8, 255 on the hand) 
 It serves whole sets: the cameras' images are grouped by stamp (``sync_slop_ms``) and the
 newest complete set is processed on a worker thread, so a node that falls behind drops whole
 sets and its outputs still make sets at the tracker
-(:class:`~hand_tracker_ros.ros_io.image_inputs.ImageInputs`). A set with a bad image gets one
-throttled error and is dropped; the node keeps running.
+(:class:`~hand_tracker_ros.ros_io.image_inputs.ImageInputs`). With ``follow_plan`` it follows
+the tracker's plans on ``hand/observation_plan``: one set per plan, in the plan's regions of
+interest (:mod:`hand_tracker_ros.ros_io.plans`). A set with a bad image gets one throttled
+error and is dropped; the node keeps running.
 
 In the composed tracker process (``in_process=True``) it subscribes to nothing: the tracker
 hands it each synchronized image set it is about to track (:meth:`FeaturesNode.process_set`)
@@ -20,6 +22,7 @@ subscribes to them (to look at the features), so nothing is serialized otherwise
 """
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -36,6 +39,8 @@ from hand_tracker_ros.ros_io.image_inputs import ImageInputs, ImageSet
 from hand_tracker_ros.ros_io.images import image_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
+from hand_tracker_ros.ros_io.plans import follow_plans, plan_summary
+from hand_tracker_ros.tracking.attention import ObservationPlan
 from hand_tracker_ros.vision.features import CameraFeatures, MultiCameraFeatures
 from hand_tracker_ros.vision.visualize import edge_image, flow_image, mask_image, paste_roi
 
@@ -58,6 +63,8 @@ class FeaturesNode(Node):
         self._features = MultiCameraFeatures(self.config.cameras, self.config.features)
         self._pubs = {c: {o: self.create_publisher(Image, f'{c}/{o}', 10) for o in OUTPUTS}
                       for c in self.config.cameras}
+        self._plans = (follow_plans(self, self.config.cameras)
+                       if self.config.follow_plan and not in_process else None)
         if not in_process:
             self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
                                        self.config.image_transport, self.config.queue_depth,
@@ -79,8 +86,12 @@ class FeaturesNode(Node):
         return features
 
     def _on_set(self, image_set: ImageSet) -> None:
-        """(Standalone, the inputs' worker thread.) Features of one synchronized set."""
-        self.process_set(image_set.images_rgb, image_set.headers)
+        """(Standalone, the inputs' worker thread.) Features of one synchronized set, in
+        the tracker's plan (skipped when its plan was served)."""
+        plan = ObservationPlan.everything() if self._plans is None else self._plans.take(
+            time.monotonic())
+        if plan is not None:
+            self.process_set(image_set.images_rgb, image_set.headers, plan.rois_px)
 
     def _publish(self, camera: str, features: CameraFeatures, header: Header) -> None:
         """Publish one camera's features (in process: only the topics someone reads)."""
@@ -103,7 +114,7 @@ class FeaturesNode(Node):
         node."""
         if not self._in_process:
             self._inputs.close()
-            self.get_logger().info(self._inputs.summary())
+            self.get_logger().info(self._inputs.summary() + plan_summary(self._plans))
         self._features.close()
         super().destroy_node()
 

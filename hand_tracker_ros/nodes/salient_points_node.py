@@ -6,8 +6,11 @@ jpeg/png stream ``<cam>/image_raw/compressed``) and ``<cam>/camera_info`` and pu
 ``<cam>/salient_points`` (hand_tracker_msgs/SalientPoints, reliable, the input's header):
 unlabelled candidates (u, v in px, score in 0..1); the tracker assigns them to fingers. Like
 the features node it serves whole sets, the newest first (``sync_slop_ms``,
-:class:`~hand_tracker_ros.ros_io.image_inputs.ImageInputs`). A set with a bad image gets one
-throttled error and is dropped; the node keeps running.
+:class:`~hand_tracker_ros.ros_io.image_inputs.ImageInputs`), and with ``follow_plan`` it
+follows the tracker's plans on ``hand/observation_plan``: one set per plan, detected in the
+plan's regions of interest when the plan asks for detection, otherwise published without
+candidates, so that the set is complete at the tracker (:mod:`hand_tracker_ros.ros_io.plans`).
+A set with a bad image gets one throttled error and is dropped; the node keeps running.
 
 In the composed tracker process (``in_process=True``) it subscribes to nothing: the tracker
 asks it for the detections of the sets it tracks (:meth:`SalientPointsNode.detect_set`), and
@@ -15,6 +18,7 @@ asks it for the detections of the sets it tracks (:meth:`SalientPointsNode.detec
 """
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
@@ -30,6 +34,8 @@ from hand_tracker_ros.ros_io.image_inputs import ImageInputs, ImageSet
 from hand_tracker_ros.ros_io.images import salient_points_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
+from hand_tracker_ros.ros_io.plans import follow_plans, plan_summary
+from hand_tracker_ros.tracking.attention import ObservationPlan
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import FingertipDetector
 from hand_tracker_ros.vision.image import Box
@@ -54,6 +60,8 @@ class SalientPointsNode(Node):
                       for c in self.config.cameras}
         # ONNX Runtime releases the GIL: two images at a time use both cores.
         self._pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix='detector')
+        self._plans = (follow_plans(self, self.config.cameras)
+                       if self.config.follow_plan and not in_process else None)
         if not in_process:
             self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,
                                        self.config.image_transport, self.config.queue_depth,
@@ -63,12 +71,14 @@ class SalientPointsNode(Node):
                                f'{where}')
 
     def detect_set(self, images_rgb: Sequence[UInt8Array], headers: Sequence[Header],
-                   rois_px: Sequence[Box | None] | None = None) -> list[SalientDetections]:
+                   rois_px: Sequence[Box | None] | None = None, *, detect: bool = True
+                   ) -> list[SalientDetections]:
         """Detections of one synchronized set, cameras in ``cameras`` order, each in its
-        region of interest (None: the whole image); published (in process: only while
-        someone subscribes)."""
+        region of interest (None: the whole image), or none without ``detect``; published
+        (in process: only while someone subscribes)."""
         rois = list(rois_px) if rois_px is not None else [None] * len(images_rgb)
-        tips = list(self._pool.map(self._detector.detect, images_rgb, rois))
+        tips = (list(self._pool.map(self._detector.detect, images_rgb, rois)) if detect
+                else [SalientDetections.empty()] * len(images_rgb))
         for camera, found, rgb, header in zip(self.config.cameras, tips, images_rgb, headers):
             pub = self._pubs[camera]
             if not self._in_process or pub.get_subscription_count() > 0:
@@ -77,15 +87,20 @@ class SalientPointsNode(Node):
         return tips
 
     def _on_set(self, image_set: ImageSet) -> None:
-        """(Standalone, the inputs' worker thread.) Detections of one synchronized set."""
-        self.detect_set(image_set.images_rgb, image_set.headers)
+        """(Standalone, the inputs' worker thread.) Detections of one synchronized set, in
+        the tracker's plan (skipped when its plan was served)."""
+        plan = ObservationPlan.everything() if self._plans is None else self._plans.take(
+            time.monotonic())
+        if plan is not None:
+            self.detect_set(image_set.images_rgb, image_set.headers, plan.rois_px,
+                            detect=plan.detect)
 
     def destroy_node(self) -> None:
         """Stop the input and detection threads (logging where the input sets went), then
         the node."""
         if not self._in_process:
             self._inputs.close()
-            self.get_logger().info(self._inputs.summary())
+            self.get_logger().info(self._inputs.summary() + plan_summary(self._plans))
         self._pool.shutdown(wait=True)
         super().destroy_node()
 

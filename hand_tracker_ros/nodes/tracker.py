@@ -95,9 +95,11 @@ from hand_tracker_ros.ros_io.observations import (
     part_value,
 )
 from hand_tracker_ros.ros_io.params import declare_config
+from hand_tracker_ros.ros_io.plans import plan_msg
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
 from hand_tracker_ros.sync.input_health import InputHealth
+from hand_tracker_ros.tracking.attention import Attention
 from hand_tracker_ros.tracking.overlay import observation_overlays
 from hand_tracker_ros.tracking.session import TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker
@@ -223,6 +225,12 @@ class TrackerNode(Node):
         self._pub_diag = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS.name, 10)
         self._pub_overlay = {c: self.create_publisher(Image, topics.overlay_topic(c), 2)
                              for c in cfg.cameras} if cfg.publish_overlay else {}
+        # Distributed, the features and salient_points processes follow the tracker's plan.
+        self._attention = (Attention(cfg.attention, self.working_cameras)
+                           if cfg.inputs == 'features' else None)
+        self._pub_plan = (self.create_publisher(
+            message_class(topics.OBSERVATION_PLAN.msgtype), topics.OBSERVATION_PLAN.name,
+            QoSProfile(depth=1)) if self._attention is not None else None)
         # Wall-clock timers: frame waits and diagnostics must run even when sim time pauses.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(cfg.diagnostics_period_s, self._diagnose, clock=self._steady)
@@ -344,6 +352,12 @@ class TrackerNode(Node):
                received_s: float) -> None:
         restarts = self._session.restarts
         assert self._pipeline is not None
+        if self._attention is not None and self._pub_plan is not None:
+            # The next set's plan, made from the estimate before this fit, as the composed
+            # graph's observer makes it, so that its observation overlaps this fit.
+            self._pub_plan.publish(plan_msg(self._attention.plan(self._session),
+                                            outputs.header_at(synced.stamp_ns, ''),
+                                            self.config.cameras))
         # Every live set has a deadline (it also makes the session search a slice per set);
         # the first set, before any gap was measured, assumes 30 Hz.
         budget_s = (self.config.budget_ms / 1e3 or self._pipeline.period_s

@@ -87,6 +87,11 @@ def test_tracker_follows_a_synthetic_sequence(node_process, ros, hand_model, tmp
     _collect(node, TFMessage, '/tf', tfs)
     _collect(node, DiagnosticArray, '/diagnostics', diags)
     _collect(node, Image, f'{names[0]}/overlay', overlays)
+    plans, flows = [], []
+    if not composed:      # distributed: the features process follows the tracker's plans
+        from hand_tracker_msgs.msg import ObservationPlan
+        _collect(node, ObservationPlan, 'hand/observation_plan', plans)
+        _collect(node, Image, f'{names[0]}/flow', flows)
     images = {c: node.create_publisher(Image, f'{c}/image_raw', qos_profile_sensor_data)
               for c in names}
     infos = {c: node.create_publisher(CameraInfo, f'{c}/camera_info', qos_profile_sensor_data)
@@ -144,6 +149,23 @@ def test_tracker_follows_a_synthetic_sequence(node_process, ros, hand_model, tmp
                              QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
     assert spin_until(lambda: description, 10.0)
     assert description[0].data == urdf_text(hand_model, root_link='world')
+    if not composed:
+        # One plan per fit, made from the estimate before it; once tracked, the features of
+        # the first camera are computed only inside the planned regions (the flow, finite
+        # everywhere on a whole image, is NaN outside them).
+        assert len(plans) >= len(frames) - 1
+        boxes = [(r.x_offset, r.y_offset, r.x_offset + r.width, r.y_offset + r.height)
+                 for p in plans for n, r in zip(p.camera_names, p.rois)
+                 if n == names[0] and r.width > 0]
+        assert boxes and all(b[2] - b[0] < sequence.rig.cameras[0].width for b in boxes)
+        u0, v0 = min(b[0] for b in boxes), min(b[1] for b in boxes)
+        u1, v1 = max(b[2] for b in boxes), max(b[3] for b in boxes)
+        last = max(flows, key=_stamp)
+        assert _stamp(last) == stamps[-1]
+        flow = np.frombuffer(last.data, np.float32).reshape(last.height, last.width, 2)
+        inside = np.zeros(flow.shape[:2], bool)
+        inside[v0:v1, u0:u1] = True
+        assert np.isfinite(flow[inside]).any() and not np.isfinite(flow[~inside]).any()
     assert (features is None or features.proc.poll() is None) and tracker.proc.poll() is None
     assert 'Traceback' not in tracker.output()
 

@@ -1,0 +1,106 @@
+"""The tracker's observation plan across processes: the distributed graph's attention.
+
+In the composed graph the tracker plans each set's observation itself
+(:mod:`hand_tracker_ros.tracking.attention`): features in a region of interest around a
+tracked hand, fingertips in every few sets, and only for the sets it tracks. Distributed, the
+features and salient_points processes would otherwise observe every image of every set at
+full size, and on one machine take the cores from the tracker's fit. So the tracker publishes
+its plan (``hand_tracker_msgs/ObservationPlan`` on ``hand/observation_plan``) when it starts
+to fit a set, planned from the estimate before that fit, as in process; each of the two
+nodes then observes one set per plan, the first complete set it gets after the plan, in the
+plan's regions and with its detection flag (:class:`PlanGate`). The fit in progress and the
+observation of the next set overlap, as in the composed live loop.
+
+Without a plan for ``PLAN_TIMEOUT_S`` (no tracker yet, a tracker that stopped, or a user who
+only looks at the features) the nodes observe every set whole, as before plans existed, so
+nothing waits for a tracker that is not there. Two nodes may take different sets when a set
+completes between the plan's arrivals at the two; the tracker then uses the features' set
+without fingertips (its ``optional_wait_ms``), which the salient term tolerates.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Sequence
+
+from hand_tracker_msgs.msg import ObservationPlan as PlanMsg
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from sensor_msgs.msg import RegionOfInterest
+from std_msgs.msg import Header
+
+from hand_tracker_ros import topics
+from hand_tracker_ros.tracking.attention import ObservationPlan
+from hand_tracker_ros.vision.image import Box
+
+# Longer than a live search's fit (about 250 ms), which plans one set like any other fit.
+PLAN_TIMEOUT_S = 1.0
+
+
+def plan_msg(plan: ObservationPlan, header: Header, cameras: Sequence[str]) -> PlanMsg:
+    """The message of ``plan`` for ``cameras`` (in the plan's camera order); a camera
+    observed whole has a zero-size region."""
+    rois = plan.rois_px if plan.rois_px is not None else [None] * len(cameras)
+    return PlanMsg(header=header, camera_names=list(cameras), detect=bool(plan.detect),
+                   rois=[RegionOfInterest() if box is None else RegionOfInterest(
+                       x_offset=box[0], y_offset=box[1], width=box[2] - box[0],
+                       height=box[3] - box[1]) for box in rois])
+
+
+def plan_from_msg(msg: PlanMsg, cameras: Sequence[str]) -> ObservationPlan:
+    """The plan of a message for ``cameras`` (this node's order); a camera the message does
+    not name, or names with a zero-size region, is observed whole."""
+    boxes: dict[str, Box] = {
+        name: (r.x_offset, r.y_offset, r.x_offset + r.width, r.y_offset + r.height)
+        for name, r in zip(msg.camera_names, msg.rois) if r.width > 0 and r.height > 0}
+    rois = [boxes.get(c) for c in cameras]
+    return ObservationPlan(rois if any(r is not None for r in rois) else None, msg.detect)
+
+
+class PlanGate:
+    """One observed set per received plan (module docstring); thread-safe.
+
+    :meth:`offer` runs in the plan subscription's callback, :meth:`take` on the node's
+    worker thread before it observes a set. Times are ``time.monotonic`` seconds.
+    """
+
+    def __init__(self, timeout_s: float = PLAN_TIMEOUT_S) -> None:
+        self._timeout_s = timeout_s
+        self._lock = threading.Lock()
+        self._plan: ObservationPlan | None = None
+        self._received_s = float('-inf')
+        self._served = True
+        self.skipped = 0       # sets not observed: the latest plan was already served
+
+    def offer(self, plan: ObservationPlan, now_s: float) -> None:
+        """A new plan: the next set is observed with it."""
+        with self._lock:
+            self._plan, self._received_s, self._served = plan, now_s, False
+
+    def take(self, now_s: float) -> ObservationPlan | None:
+        """The plan of the set about to be observed; everything (whole images, detection)
+        without a plan in the last ``timeout_s``; None: skip the set, the latest plan was
+        served."""
+        with self._lock:
+            if self._plan is None or now_s - self._received_s > self._timeout_s:
+                return ObservationPlan.everything()
+            if self._served:
+                self.skipped += 1
+                return None
+            self._served = True
+            return self._plan
+
+
+def follow_plans(node: Node, cameras: Sequence[str]) -> PlanGate:
+    """A gate fed by ``node``'s subscription to the tracker's plans (reliable, depth 1: only
+    the latest plan counts), for ``cameras`` in this node's order."""
+    gate = PlanGate()
+    node.create_subscription(
+        PlanMsg, topics.OBSERVATION_PLAN.name,
+        lambda msg: gate.offer(plan_from_msg(msg, cameras), time.monotonic()), QoSProfile(depth=1))
+    return gate
+
+
+def plan_summary(gate: PlanGate | None) -> str:
+    """The shutdown log's words on the sets a gate skipped ('' without a gate)."""
+    return '' if gate is None else f", {gate.skipped} skipped between the tracker's plans"

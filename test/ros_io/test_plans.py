@@ -1,0 +1,42 @@
+"""The tracker's observation plan across processes (ros_io.plans): the message round trip and
+the gate that lets one set through per plan."""
+from __future__ import annotations
+
+import pytest
+
+from hand_tracker_ros.tracking.attention import ObservationPlan
+
+pytestmark = pytest.mark.ros
+
+
+def test_plan_survives_the_message_in_another_camera_order() -> None:
+    from hand_tracker_ros.ros_io.outputs import header_at
+    from hand_tracker_ros.ros_io.plans import plan_from_msg, plan_msg
+
+    plan = ObservationPlan([(10, 20, 110, 140), None, (0, 0, 320, 240)], detect=False)
+    msg = plan_msg(plan, header_at(5, ''), ('cam0', 'cam1', 'cam2'))
+    assert [r.width for r in msg.rois] == [100, 0, 320]
+    back = plan_from_msg(msg, ('cam2', 'cam0', 'cam1', 'cam3'))
+    assert back.rois_px == [(0, 0, 320, 240), (10, 20, 110, 140), None, None]
+    assert back.detect is False
+    whole = plan_from_msg(plan_msg(ObservationPlan.everything(), header_at(5, ''),
+                                   ('cam0', 'cam1')), ('cam0', 'cam1'))
+    assert whole == ObservationPlan.everything()
+
+
+def test_gate_lets_one_set_through_per_plan_and_everything_without_plans() -> None:
+    from hand_tracker_ros.ros_io.plans import PlanGate
+
+    gate = PlanGate(timeout_s=1.0)
+    assert gate.take(0.0) == ObservationPlan.everything()     # no tracker yet: every set
+    assert gate.take(0.1) == ObservationPlan.everything()
+    plan = ObservationPlan([(1, 2, 3, 4)], detect=False)
+    gate.offer(plan, 1.0)
+    assert gate.take(1.01) is plan
+    assert gate.take(1.04) is None and gate.take(1.07) is None   # served: wait for the next
+    assert gate.skipped == 2
+    newer = ObservationPlan(None, detect=True)
+    gate.offer(newer, 1.2)
+    assert gate.take(1.21) is newer
+    assert gate.take(2.3) == ObservationPlan.everything()     # the tracker went quiet
+    assert gate.skipped == 2
