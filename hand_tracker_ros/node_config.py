@@ -35,6 +35,9 @@ class FeaturesNodeConfig:
     sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set; whole sets '
                                 'are served, the newest first', unit='ms', low=0.1,
                                 high=1000.0)
+    working_width_px: int = param(320, 'observe images wider than this scaled down to it '
+                                  "(vision/resolution.py); the tracker's working_width_px "
+                                  'must be the same', unit='px', low=0, high=100000)
     follow_plan: bool = param(True, "observe one set per plan of the tracker on "
                               "'hand/observation_plan', in its regions of interest "
                               '(ros_io/plans.py); without a recent plan, every set whole')
@@ -54,6 +57,9 @@ class SalientPointsNodeConfig:
     sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set; whole sets '
                                 'are served, the newest first', unit='ms', low=0.1,
                                 high=1000.0)
+    working_width_px: int = param(320, 'observe images wider than this scaled down to it '
+                                  "(vision/resolution.py); the tracker's working_width_px "
+                                  'must be the same', unit='px', low=0, high=100000)
     follow_plan: bool = param(True, "detect in one set per plan of the tracker on "
                               "'hand/observation_plan', in its regions of interest, when it "
                               'asks for detection (ros_io/plans.py); without a recent plan, '
@@ -85,10 +91,11 @@ class TrackerNodeConfig:
                                  "'compressed' (jpeg, png) on <cam>/<image_topic>/compressed",
                                  choices=IMAGE_TRANSPORTS)
     attention: AttentionConfig = nested(AttentionConfig)
-    working_width_px: int = param(320, "with inputs 'images': track wider images scaled down "
-                                  'to this width (vision/resolution.py): a 640x480 rig then '
-                                  'costs what a 320x240 one does, at about twice its error; '
-                                  '0: at their own size',
+    working_width_px: int = param(320, 'track wider images scaled down to this width '
+                                  '(vision/resolution.py): a 640x480 rig then costs what a '
+                                  '320x240 one does, at about twice its error; 0: at their '
+                                  "own size. With inputs 'features' the features and "
+                                  "salient_points nodes' working_width_px must be the same",
                                   unit='px', low=0, high=100000)
     budget_ms: float = param(0.0, "time for one set's main fit: a correspondence round that "
                              'would end later is not started; 0 = the measured period '

@@ -5,9 +5,8 @@ salient_points or with them as processes (``--mode``) -> recorder) at ``--rate``
 real time), both paths started at the ground-truth first pose. It prints the share of sets
 estimated, estimates per second, the latency and the error against the bag's ground truth,
 then tracks the same bag offline (``hand-tracker track``) at the live tracker's working
-resolution (composed: the node's ``working_width_px``; distributed: the images' own size),
-so that the difference is live against offline only, and prints that error and the
-difference.
+resolution (the nodes' ``working_width_px``, the same in both modes), so that the difference
+is live against offline only, and prints that error and the difference.
 """
 from __future__ import annotations
 
@@ -64,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
           f'{s.fingertip_mean_mm:.2f} mm, {s.failures} failures, '
           f'{s.ms_per_frame:.0f} ms/frame in the tracker')
     if not args.no_offline:
-        width = TrackerNodeConfig().working_width_px if args.mode == 'composed' else 0
+        width = TrackerNodeConfig().working_width_px
         offline = offline_mean_error_mm(args.bag, args.rig, width)
         at = f'images wider than {width} px scaled to it' if width else "the images' size"
         print(f'offline path ({at}, as live): mean 3D joint error {offline:.2f} mm; '

@@ -6,7 +6,9 @@ Standalone (the distributed graph) it subscribes, for every camera ``<cam>`` of 
 ``<cam>/camera_info`` and publishes, reliably and with the input's header: ``<cam>/edges``
 (mono8, 255 on edges), ``<cam>/edge_orientation`` (32FC1, edge-normal direction in rad, what
 the tracker's orientation check needs), ``<cam>/mask`` (mono8, 255 on the hand) and
-``<cam>/flow`` (32FC2, px from the previous frame; not published on a camera's first frame).
+``<cam>/flow`` (32FC2, px from the previous frame; not published on a camera's first frame),
+at the working resolution (images wider than ``working_width_px`` scaled down to it, as the
+tracker's cameras are).
 It serves whole sets: the cameras' images are grouped by stamp (``sync_slop_ms``) and the
 newest complete set is processed on a worker thread, so a node that falls behind drops whole
 sets and its outputs still make sets at the tracker
@@ -42,6 +44,7 @@ from hand_tracker_ros.ros_io.params import declare_config
 from hand_tracker_ros.ros_io.plans import follow_plans, plan_summary
 from hand_tracker_ros.tracking.attention import ObservationPlan
 from hand_tracker_ros.vision.features import CameraFeatures, MultiCameraFeatures
+from hand_tracker_ros.vision.resolution import to_width
 from hand_tracker_ros.vision.visualize import edge_image, flow_image, mask_image, paste_roi
 
 DESCRIPTION = 'Per-camera image features: edges, foreground mask and optical flow.'
@@ -91,7 +94,9 @@ class FeaturesNode(Node):
         plan = ObservationPlan.everything() if self._plans is None else self._plans.take(
             time.monotonic())
         if plan is not None:
-            self.process_set(image_set.images_rgb, image_set.headers, plan.rois_px)
+            images = [to_width(image, self.config.working_width_px)
+                      for image in image_set.images_rgb]
+            self.process_set(images, image_set.headers, plan.rois_px)
 
     def _publish(self, camera: str, features: CameraFeatures, header: Header) -> None:
         """Publish one camera's features (in process: only the topics someone reads)."""

@@ -4,7 +4,8 @@ Standalone (the distributed graph), for every camera ``<cam>`` of ``cameras`` it
 (sensor-data QoS) to ``<cam>/image_raw`` (or, with ``image_transport:=compressed``, the
 jpeg/png stream ``<cam>/image_raw/compressed``) and ``<cam>/camera_info`` and publishes
 ``<cam>/salient_points`` (hand_tracker_msgs/SalientPoints, reliable, the input's header):
-unlabelled candidates (u, v in px, score in 0..1); the tracker assigns them to fingers. Like
+unlabelled candidates (u, v in px of the image at the working resolution,
+``working_width_px``, score in 0..1); the tracker assigns them to fingers. Like
 the features node it serves whole sets, the newest first (``sync_slop_ms``,
 :class:`~hand_tracker_ros.ros_io.image_inputs.ImageInputs`), and with ``follow_plan`` it
 follows the tracker's plans on ``hand/observation_plan``: one set per plan, detected in the
@@ -39,6 +40,7 @@ from hand_tracker_ros.tracking.attention import ObservationPlan
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import FingertipDetector
 from hand_tracker_ros.vision.image import Box
+from hand_tracker_ros.vision.resolution import to_width
 
 DESCRIPTION = 'Per-camera fingertip (salient point) detection with the trained detector.'
 THROTTLE_S = 5.0
@@ -92,8 +94,9 @@ class SalientPointsNode(Node):
         plan = ObservationPlan.everything() if self._plans is None else self._plans.take(
             time.monotonic())
         if plan is not None:
-            self.detect_set(image_set.images_rgb, image_set.headers, plan.rois_px,
-                            detect=plan.detect)
+            images = [to_width(image, self.config.working_width_px)
+                      for image in image_set.images_rgb]
+            self.detect_set(images, image_set.headers, plan.rois_px, detect=plan.detect)
 
     def destroy_node(self) -> None:
         """Stop the input and detection threads (logging where the input sets went), then

@@ -149,11 +149,11 @@ class TrackerNode(Node):
             self.get_logger().warning(f'rig extrinsics are in {rig.world_frame!r}; outputs are '
                                       f'labelled world_frame={self.config.world_frame!r}')
         self.cameras = tuple(rig[c] for c in self.config.cameras)
-        # What the tracker fits: the composed graph observes at the working resolution;
-        # feature frames come at their own size.
-        width = self.config.working_width_px if self.config.inputs == 'images' else 0
-        self.working_cameras = tuple(working_camera(c, width) for c in self.cameras)
-        self._by_name = {c.name: c for c in self.cameras}
+        # What the tracker fits, at the working resolution: the composed graph observes the
+        # images scaled to it, the distributed features and salient_points nodes do the same.
+        self.working_cameras = tuple(working_camera(c, self.config.working_width_px)
+                                     for c in self.cameras)
+        self._working_by_name = {c.name: c for c in self.working_cameras}
         self._model = HandModel.build(shape)
         initial = (np.asarray(self.config.initial_pose, np.float64)
                    if self.config.initialization == 'initial_pose' else None)
@@ -165,7 +165,7 @@ class TrackerNode(Node):
         self._create_outputs()
         if self.config.inputs == 'features':
             self.start(lambda synced: frame_observations(synced.stamp_ns, synced.items,
-                                                         self.cameras))
+                                                         self.working_cameras))
 
     @property
     def session(self) -> TrackingSession:
@@ -260,7 +260,7 @@ class TrackerNode(Node):
     def _on_part(self, camera: str, part: str, msg: Image | SalientPoints) -> None:
         if not self._inputs.accepts(camera):
             return
-        cam = self._by_name[camera]
+        cam = self._working_by_name[camera]
         try:
             value = part_value(msg, camera, part, (cam.width, cam.height))
         except HandTrackerError as err:

@@ -18,11 +18,30 @@ from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.camera_model import Camera
 
 
+def working_size(width: int, height: int, width_px: int) -> tuple[int, int]:
+    """(width, height) in px of a ``width`` x ``height`` image at the working width
+    ``width_px``: scaled down to it if wider, the height by the same factor (rounded);
+    unchanged otherwise (also for 0)."""
+    if width_px <= 0 or width <= width_px:
+        return width, height
+    return width_px, max(1, round(height * width_px / width))
+
+
 def working_camera(camera: Camera, width_px: int) -> Camera:
     """``camera`` scaled to ``width_px`` wide if it is wider; else itself (also for 0)."""
-    if width_px <= 0 or camera.width <= width_px:
-        return camera
-    return camera.scaled(width_px, max(1, round(camera.height * width_px / camera.width)))
+    size = working_size(camera.width, camera.height, width_px)
+    return camera if size == (camera.width, camera.height) else camera.scaled(*size)
+
+
+def to_width(image: UInt8Array, width_px: int) -> UInt8Array:
+    """``image`` (H, W[, C]) uint8 at the working width ``width_px`` (as it is, or resized
+    down): what a node without the rig (the distributed features and salient_points) observes,
+    the same size as :func:`working_camera` gives the tracker."""
+    height, width = image.shape[:2]
+    size = working_size(width, height, width_px)
+    if size == (width, height):
+        return image
+    return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
 
 
 def to_working(image: UInt8Array, camera: Camera) -> UInt8Array:

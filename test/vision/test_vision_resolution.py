@@ -39,3 +39,17 @@ def test_images_are_area_resized_to_the_working_camera_or_kept():
     assert to_working(resized, small) is resized
     with pytest.raises(ShapeError, match='cannot be scaled down'):
         to_working(np.zeros((100, 100, 3), np.uint8), small)
+
+
+def test_a_node_without_the_rig_scales_images_to_the_size_of_the_working_camera():
+    from hand_tracker_ros.vision.resolution import to_width
+
+    for width, height in ((640, 480), (1280, 720), (330, 250), (320, 240), (200, 150)):
+        camera = CameraRig.ring(4, width, height).cameras[0]
+        image = np.random.default_rng(width).integers(0, 256, (height, width, 3), np.uint8)
+        scaled = to_width(image, 320)
+        expected = working_camera(camera, 320)
+        assert scaled.shape == (expected.height, expected.width, 3)
+        np.testing.assert_array_equal(scaled, to_working(image, expected))
+    image = np.zeros((480, 640), np.uint8)
+    assert to_width(image, 0) is image
