@@ -24,7 +24,6 @@ subscribes to them (to look at the features), so nothing is serialized otherwise
 """
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -41,10 +40,8 @@ from hand_tracker_ros.ros_io.image_inputs import ImageInputs, ImageSet
 from hand_tracker_ros.ros_io.images import image_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
-from hand_tracker_ros.ros_io.plans import follow_plans, plan_summary
-from hand_tracker_ros.tracking.attention import ObservationPlan
+from hand_tracker_ros.ros_io.plans import follow_plans, plan_summary, planned_set
 from hand_tracker_ros.vision.features import CameraFeatures, MultiCameraFeatures
-from hand_tracker_ros.vision.resolution import to_width
 from hand_tracker_ros.vision.visualize import edge_image, flow_image, mask_image, paste_roi
 
 DESCRIPTION = 'Per-camera image features: edges, foreground mask and optical flow.'
@@ -91,11 +88,9 @@ class FeaturesNode(Node):
     def _on_set(self, image_set: ImageSet) -> None:
         """(Standalone, the inputs' worker thread.) Features of one synchronized set, in
         the tracker's plan (skipped when its plan was served)."""
-        plan = ObservationPlan.everything() if self._plans is None else self._plans.take(
-            time.monotonic())
-        if plan is not None:
-            images = [to_width(image, self.config.working_width_px)
-                      for image in image_set.images_rgb]
+        planned = planned_set(self._plans, image_set, self.config.working_width_px)
+        if planned is not None:
+            images, plan = planned
             self.process_set(images, image_set.headers, plan.rois_px)
 
     def _publish(self, camera: str, features: CameraFeatures, header: Header) -> None:

@@ -19,7 +19,6 @@ asks it for the detections of the sets it tracks (:meth:`SalientPointsNode.detec
 """
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
@@ -35,12 +34,10 @@ from hand_tracker_ros.ros_io.image_inputs import ImageInputs, ImageSet
 from hand_tracker_ros.ros_io.images import salient_points_msg
 from hand_tracker_ros.ros_io.logging_bridge import bridge_core_logging
 from hand_tracker_ros.ros_io.params import declare_config
-from hand_tracker_ros.ros_io.plans import follow_plans, plan_summary
-from hand_tracker_ros.tracking.attention import ObservationPlan
+from hand_tracker_ros.ros_io.plans import follow_plans, plan_summary, planned_set
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import FingertipDetector
 from hand_tracker_ros.vision.image import Box
-from hand_tracker_ros.vision.resolution import to_width
 
 DESCRIPTION = 'Per-camera fingertip (salient point) detection with the trained detector.'
 THROTTLE_S = 5.0
@@ -91,11 +88,9 @@ class SalientPointsNode(Node):
     def _on_set(self, image_set: ImageSet) -> None:
         """(Standalone, the inputs' worker thread.) Detections of one synchronized set, in
         the tracker's plan (skipped when its plan was served)."""
-        plan = ObservationPlan.everything() if self._plans is None else self._plans.take(
-            time.monotonic())
-        if plan is not None:
-            images = [to_width(image, self.config.working_width_px)
-                      for image in image_set.images_rgb]
+        planned = planned_set(self._plans, image_set, self.config.working_width_px)
+        if planned is not None:
+            images, plan = planned
             self.detect_set(images, image_set.headers, plan.rois_px, detect=plan.detect)
 
     def destroy_node(self) -> None:

@@ -30,8 +30,11 @@ from sensor_msgs.msg import RegionOfInterest
 from std_msgs.msg import Header
 
 from hand_tracker_ros import topics
+from hand_tracker_ros._typing import UInt8Array
+from hand_tracker_ros.ros_io.image_inputs import ImageSet
 from hand_tracker_ros.tracking.attention import ObservationPlan
 from hand_tracker_ros.vision.image import Box
+from hand_tracker_ros.vision.resolution import to_width
 
 # Longer than a live search's fit (about 250 ms), which plans one set like any other fit.
 PLAN_TIMEOUT_S = 1.0
@@ -104,3 +107,13 @@ def follow_plans(node: Node, cameras: Sequence[str]) -> PlanGate:
 def plan_summary(gate: PlanGate | None) -> str:
     """The shutdown log's words on the sets a gate skipped ('' without a gate)."""
     return '' if gate is None else f", {gate.skipped} skipped between the tracker's plans"
+
+
+def planned_set(gate: PlanGate | None, image_set: ImageSet, working_width_px: int
+                ) -> tuple[list[UInt8Array], ObservationPlan] | None:
+    """What an upstream node observes of ``image_set``: its images at the working width with
+    the gate's plan (everything without a gate), or None when the gate skips the set."""
+    plan = ObservationPlan.everything() if gate is None else gate.take(time.monotonic())
+    if plan is None:
+        return None
+    return [to_width(image, working_width_px) for image in image_set.images_rgb], plan
