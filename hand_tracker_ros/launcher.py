@@ -21,6 +21,7 @@ from typing import TextIO
 
 from hand_tracker_ros.ament import executable
 from hand_tracker_ros.ros_env import apply_ros_defaults
+from hand_tracker_ros.shm import SHM_DIR, remove_stale_segments
 
 LOG = logging.getLogger(__name__)
 
@@ -83,7 +84,12 @@ class ProcessGroup:
         self._lock = threading.Lock()
 
     def start(self) -> None:
-        """Start every process (in order)."""
+        """Start every process (in order), after removing the Fast DDS shared memory that
+        killed processes left behind (:mod:`hand_tracker_ros.shm`)."""
+        stale = remove_stale_segments()
+        if stale:
+            print(f'removed {len(stale)} Fast DDS shared-memory files whose processes are gone '
+                  f'from {SHM_DIR}', file=self._output, flush=True)
         for spec in self._specs:
             env = apply_ros_defaults(dict(os.environ))
             env.update(spec.env)
