@@ -9,6 +9,8 @@ default Docker container) fills up after a few interrupted runs. Fast DDS's own 
 clean`` makes the same check, but it comes with the ``fastdds`` tool, which is not on PyPI:
 a lock file that this process can lock exclusively has no live owner, and then the files of
 its name go. A name with any lock still held, or a lock file this user cannot open, is kept.
+A process that creates its files at that very moment, before it locks them, could lose them
+(the same race as that tool's); the launcher calls this before it starts its own processes.
 """
 from __future__ import annotations
 
