@@ -9,24 +9,31 @@ default Docker container) fills up after a few interrupted runs. Fast DDS's own 
 clean`` makes the same check, but it comes with the ``fastdds`` tool, which is not on PyPI:
 a lock file that this process can lock exclusively has no live owner, and then the files of
 its name go. A name with any lock still held, or a lock file this user cannot open, is kept.
-A process that creates its files at that very moment, before it locks them, could lose them
-(the same race as that tool's); the launcher calls this before it starts its own processes.
+Only segments are removed, not ports (52 kB each, reopened under fixed names, and Fast DDS
+recovers a dead process's port itself), and only when their lock files are older than
+``MIN_AGE_S``: a process starting at that moment takes its locks in steps (an exclusive lock
+turned shared), and our brief exclusive lock could make its own attempt fail.
 """
 from __future__ import annotations
 
 import fcntl
 import os
 import re
+import time
 from collections import defaultdict
 from pathlib import Path
 
 SHM_DIR = Path('/dev/shm')
-_LOCK_FILE = re.compile(r'^(fastdds_(?:[0-9a-z]{16}|port\d{1,5}))_(?:el|sl)$')
+MIN_AGE_S = 10.0
+_LOCK_FILE = re.compile(r'^(fastdds_[0-9a-z]{16})_(?:el|sl)$')
 
 
-def _held(lock_file: Path) -> bool:
-    """Whether a live process holds ``lock_file`` (True when it cannot be opened)."""
+def _held(lock_file: Path, now_s: float) -> bool:
+    """Whether a live process holds ``lock_file``, or may be about to (True when it is
+    younger than ``MIN_AGE_S`` or cannot be opened)."""
     try:
+        if now_s - lock_file.stat().st_mtime < MIN_AGE_S:
+            return True
         with lock_file.open('rb') as handle:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
@@ -35,8 +42,9 @@ def _held(lock_file: Path) -> bool:
 
 
 def remove_stale_segments(shm_dir: Path = SHM_DIR) -> list[str]:
-    """Remove the Fast DDS files in ``shm_dir`` whose every lock file is free; returns the
-    names removed (none when the directory cannot be read)."""
+    """Remove the Fast DDS segments in ``shm_dir`` whose every lock file is free; returns
+    the names removed (none when the directory cannot be read)."""
+    now_s = time.time()
     try:
         names = set(os.listdir(shm_dir))
     except OSError:
@@ -48,9 +56,9 @@ def remove_stale_segments(shm_dir: Path = SHM_DIR) -> list[str]:
             locks[match.group(1)].append(name)
     removed = []
     for base, lock_files in sorted(locks.items()):
-        if any(_held(shm_dir / lock) for lock in lock_files):
+        if any(_held(shm_dir / lock, now_s) for lock in lock_files):
             continue
-        for name in (base, f'sem.{base}_mutex', *lock_files):
+        for name in (base, *lock_files):
             if name in names:
                 try:
                     (shm_dir / name).unlink()

@@ -63,7 +63,7 @@ class FeaturesNode(Node):
         self._features = MultiCameraFeatures(self.config.cameras, self.config.features)
         self._pubs = {c: {o: self.create_publisher(Image, f'{c}/{o}', 10) for o in OUTPUTS}
                       for c in self.config.cameras}
-        self._plans = (follow_plans(self, self.config.cameras)
+        self._plans = (follow_plans(self, self.config.cameras, THROTTLE_S)
                        if self.config.follow_plan and not in_process else None)
         if not in_process:
             self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,

@@ -59,7 +59,7 @@ class SalientPointsNode(Node):
                       for c in self.config.cameras}
         # ONNX Runtime releases the GIL: two images at a time use both cores.
         self._pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix='detector')
-        self._plans = (follow_plans(self, self.config.cameras)
+        self._plans = (follow_plans(self, self.config.cameras, THROTTLE_S)
                        if self.config.follow_plan and not in_process else None)
         if not in_process:
             self._inputs = ImageInputs(self, self.config.cameras, self.config.image_topic,

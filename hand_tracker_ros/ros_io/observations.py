@@ -64,7 +64,8 @@ def feature_image(msg: Image, camera_name: str, topic: str,
     camera_name, topic : str
         Used in error messages; ``topic`` selects the expected layout (:data:`IMAGE_LAYOUTS`).
     size_px : (int, int)
-        ``(width, height)`` of the camera in the rig.
+        ``(width, height)`` of the camera at the tracker's working resolution (the rig's
+        size scaled down to ``working_width_px``).
 
     Returns
     -------
@@ -83,8 +84,9 @@ def feature_image(msg: Image, camera_name: str, topic: str,
         msg_text = f'{where}: expected encoding {encoding}, got {msg.encoding!r}'
         raise ImageFormatError(msg_text)
     if (msg.width, msg.height) != tuple(size_px):
-        msg_text = (f'{where}: image is {msg.width}x{msg.height} but the rig says '
-                    f'{size_px[0]}x{size_px[1]}')
+        msg_text = (f'{where}: image is {msg.width}x{msg.height} but the tracker works at '
+                    f'{size_px[0]}x{size_px[1]} (the rig at working_width_px: the '
+                    'features and salient_points nodes need the same working_width_px)')
         raise ImageFormatError(msg_text)
     item = np.dtype(dtype).newbyteorder('>' if msg.is_bigendian else '<')
     row_bytes = msg.width * channels * item.itemsize
@@ -110,11 +112,17 @@ def part_value(msg: Image | SalientPoints, camera_name: str, topic: str,
     Raises
     ------
     ImageFormatError
-        For a bad feature image (see :func:`feature_image`).
+        For a bad feature image (see :func:`feature_image`), or salient points of an image
+        of another size than ``size_px``.
     ShapeError
         For salient points with non-finite coordinates.
     """
     if topic == 'salient_points':
+        if (msg.width, msg.height) != tuple(size_px):
+            msg_text = (f'{camera_name}/{topic}: detections in a {msg.width}x{msg.height} '
+                        f'image but the tracker works at {size_px[0]}x{size_px[1]} (the '
+                        'salient_points node needs the tracker\'s working_width_px)')
+            raise ImageFormatError(msg_text)
         try:
             return detections_from_msg(msg)
         except ShapeError as err:

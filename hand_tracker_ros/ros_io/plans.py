@@ -11,11 +11,19 @@ nodes then observes one set per plan, the first complete set it gets after the p
 plan's regions and with its detection flag (:class:`PlanGate`). The fit in progress and the
 observation of the next set overlap, as in the composed live loop.
 
-Without a plan for ``PLAN_TIMEOUT_S`` (no tracker yet, a tracker that stopped, or a user who
-only looks at the features) the nodes observe every set whole, as before plans existed, so
-nothing waits for a tracker that is not there. Two nodes may take different sets when a set
-completes between the plan's arrivals at the two; the tracker then uses the features' set
-without fingertips (its ``optional_wait_ms``), which the salient term tolerates.
+A planned set can be lost on its way (a dropped message, a set the tracker refused): no fit
+starts, so no new plan comes. The gate then lets one more set through with the latest plan
+once ``REPEAT_S`` has passed since it served one, so such a loss costs a few sets, not the
+timeout. Without a plan for ``PLAN_TIMEOUT_S`` (no tracker yet, a tracker that stopped, or a
+user who only looks at the features) the nodes observe every set whole, as before plans
+existed, so nothing waits for a tracker that is not there.
+
+The two nodes may observe different sets for one plan: each takes the first complete set it
+is free for after the plan, and a node still busy with its previous set when the plan comes
+takes the set that waited meanwhile. The tracker then gets that set's features without
+fingertips after its ``optional_wait_ms`` (the salient term tolerates a set without them).
+Detection is usually the faster of the two, which keeps this rare; choosing the set by stamp
+would remove it.
 """
 from __future__ import annotations
 
@@ -31,6 +39,7 @@ from std_msgs.msg import Header
 
 from hand_tracker_ros import topics
 from hand_tracker_ros._typing import UInt8Array
+from hand_tracker_ros.errors import HandTrackerError, ShapeError
 from hand_tracker_ros.ros_io.image_inputs import ImageSet
 from hand_tracker_ros.tracking.attention import ObservationPlan
 from hand_tracker_ros.vision.image import Box
@@ -38,6 +47,8 @@ from hand_tracker_ros.vision.resolution import to_width
 
 # Longer than a live search's fit (about 250 ms), which plans one set like any other fit.
 PLAN_TIMEOUT_S = 1.0
+# Longer than a tracking fit (40-120 ms live), shorter than the timeout.
+REPEAT_S = 0.3
 
 
 def plan_msg(plan: ObservationPlan, header: Header, cameras: Sequence[str]) -> PlanMsg:
@@ -52,7 +63,17 @@ def plan_msg(plan: ObservationPlan, header: Header, cameras: Sequence[str]) -> P
 
 def plan_from_msg(msg: PlanMsg, cameras: Sequence[str]) -> ObservationPlan:
     """The plan of a message for ``cameras`` (this node's order); a camera the message does
-    not name, or names with a zero-size region, is observed whole."""
+    not name, or names with a zero-size region, is observed whole.
+
+    Raises
+    ------
+    ShapeError
+        When the message has another number of regions than of camera names.
+    """
+    if len(msg.camera_names) != len(msg.rois):
+        text = (f'observation plan: {len(msg.camera_names)} camera names but '
+                f'{len(msg.rois)} regions')
+        raise ShapeError(text)
     boxes: dict[str, Box] = {
         name: (r.x_offset, r.y_offset, r.x_offset + r.width, r.y_offset + r.height)
         for name, r in zip(msg.camera_names, msg.rois) if r.width > 0 and r.height > 0}
@@ -72,35 +93,43 @@ class PlanGate:
         self._lock = threading.Lock()
         self._plan: ObservationPlan | None = None
         self._received_s = float('-inf')
-        self._served = True
+        self._served_s: float | None = None    # when the latest plan was last served
         self.skipped = 0       # sets not observed: the latest plan was already served
 
     def offer(self, plan: ObservationPlan, now_s: float) -> None:
         """A new plan: the next set is observed with it."""
         with self._lock:
-            self._plan, self._received_s, self._served = plan, now_s, False
+            self._plan, self._received_s, self._served_s = plan, now_s, None
 
     def take(self, now_s: float) -> ObservationPlan | None:
         """The plan of the set about to be observed; everything (whole images, detection)
         without a plan in the last ``timeout_s``; None: skip the set, the latest plan was
-        served."""
+        served less than ``REPEAT_S`` ago."""
         with self._lock:
             if self._plan is None or now_s - self._received_s > self._timeout_s:
                 return ObservationPlan.everything()
-            if self._served:
+            if self._served_s is not None and now_s - self._served_s < REPEAT_S:
                 self.skipped += 1
                 return None
-            self._served = True
+            self._served_s = now_s
             return self._plan
 
 
-def follow_plans(node: Node, cameras: Sequence[str]) -> PlanGate:
+def follow_plans(node: Node, cameras: Sequence[str], throttle_s: float) -> PlanGate:
     """A gate fed by ``node``'s subscription to the tracker's plans (reliable, depth 1: only
-    the latest plan counts), for ``cameras`` in this node's order."""
+    the latest plan counts), for ``cameras`` in this node's order; a malformed plan is
+    logged (throttled) and ignored."""
     gate = PlanGate()
-    node.create_subscription(
-        PlanMsg, topics.OBSERVATION_PLAN.name,
-        lambda msg: gate.offer(plan_from_msg(msg, cameras), time.monotonic()), QoSProfile(depth=1))
+
+    def on_plan(msg: PlanMsg) -> None:
+        try:
+            plan = plan_from_msg(msg, cameras)
+        except HandTrackerError as err:
+            node.get_logger().error(f'ignoring a plan: {err}', throttle_duration_sec=throttle_s)
+            return
+        gate.offer(plan, time.monotonic())
+
+    node.create_subscription(PlanMsg, topics.OBSERVATION_PLAN.name, on_plan, QoSProfile(depth=1))
     return gate
 
 

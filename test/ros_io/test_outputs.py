@@ -212,12 +212,16 @@ def test_feature_images_decode_and_bad_ones_are_clear_errors() -> None:
     assert edges.dtype == bool and edges.sum() == 6
     with pytest.raises(ImageFormatError, match='cam0/mask: expected encoding mono8'):
         feature_image(_image(np.zeros((6, 8, 3), np.uint8), 'rgb8'), 'cam0', 'mask', (8, 6))
-    with pytest.raises(ImageFormatError, match='image is 8x6 but the rig says 16x12'):
+    with pytest.raises(ImageFormatError, match='image is 8x6 but the tracker works at 16x12'):
         feature_image(_image(np.zeros((6, 8), np.uint8), 'mono8'), 'cam0', 'mask', (16, 12))
-    tips = SalientPoints(points=[SalientPoint(u=1.0, v=2.0, score=0.5),
+    tips = SalientPoints(width=8, height=6,
+                         points=[SalientPoint(u=1.0, v=2.0, score=0.5),
                                  SalientPoint(u=float('nan'), v=2.0, score=0.5)])
     with pytest.raises(ShapeError, match='cam1/salient_points: '):
         part_value(tips, 'cam1', 'salient_points', (8, 6))
+    with pytest.raises(ImageFormatError, match='detections in a 8x6 image but the tracker '
+                       'works at 16x12'):
+        part_value(tips, 'cam1', 'salient_points', (16, 12))
     tips.points.pop()
     assert part_value(tips, 'cam1', 'salient_points', (8, 6)).uv_px.tolist() == [[1.0, 2.0]]
     bad = np.zeros((6, 8), np.float32)

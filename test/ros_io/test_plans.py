@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.tracking.attention import ObservationPlan
 
 pytestmark = pytest.mark.ros
@@ -22,10 +23,13 @@ def test_plan_survives_the_message_in_another_camera_order() -> None:
     whole = plan_from_msg(plan_msg(ObservationPlan.everything(), header_at(5, ''),
                                    ('cam0', 'cam1')), ('cam0', 'cam1'))
     assert whole == ObservationPlan.everything()
+    msg.rois.pop()
+    with pytest.raises(ShapeError, match='3 camera names but 2 regions'):
+        plan_from_msg(msg, ('cam0',))
 
 
 def test_gate_lets_one_set_through_per_plan_and_everything_without_plans() -> None:
-    from hand_tracker_ros.ros_io.plans import PlanGate
+    from hand_tracker_ros.ros_io.plans import REPEAT_S, PlanGate
 
     gate = PlanGate(timeout_s=1.0)
     assert gate.take(0.0) == ObservationPlan.everything()     # no tracker yet: every set
@@ -38,5 +42,8 @@ def test_gate_lets_one_set_through_per_plan_and_everything_without_plans() -> No
     newer = ObservationPlan(None, detect=True)
     gate.offer(newer, 1.2)
     assert gate.take(1.21) is newer
+    # The served set was lost on its way (no fit, so no plan): one more after REPEAT_S.
+    assert gate.take(1.21 + REPEAT_S / 2) is None
+    assert gate.take(1.22 + REPEAT_S) is newer
     assert gate.take(2.3) == ObservationPlan.everything()     # the tracker went quiet
-    assert gate.skipped == 2
+    assert gate.skipped == 3
