@@ -28,8 +28,12 @@ class ModelView:
     contours: ContourPoints
 
 
+# The terms read the mask, the depth and the vertex visibility, never the triangle ids.
+_RENDER = RenderConfig(face_ids=False)
+
+
 def model_views(posed: PosedHand, edges: MeshEdges, cameras: Sequence[Camera], *,
-                render_config: RenderConfig = RenderConfig(),
+                render_config: RenderConfig = _RENDER,
                 contour_config: ContourConfig = ContourConfig()) -> tuple[ModelView, ...]:
     """Render ``posed.vertices_m`` into every camera and extract its contour points.
 

@@ -30,6 +30,13 @@ neighbourhood of (u, v) (clipped to the image) has z-buffer depth >= z_i - ``vis
 (background counts as infinitely deep). The neighbourhood keeps vertices that lie exactly
 on the silhouette, whose own pixel may show background or a neighbouring face.
 
+Triangle ids (``face_ids``, default on) cost a second full-image buffer and a write per
+covered pixel. The tracker reads only the mask, the depth and the vertex visibility, and
+without the ids its fit took 0.85 of the time (in-process A/B on held-out bags, the same
+estimates), so :func:`hand_tracker_ros.core.views.model_views` turns them off; shading needs
+them. The mask is the z-buffer's finite pixels either way (a covered pixel always has a
+finite depth).
+
 The kernels are numba ``@njit(cache=True, nogil=True)``: a compiled z-buffer is 10-40x faster
 than numpy/OpenCV/embree alternatives (bench/bench_render.py: 0.07-0.12 ms per 320x240
 view); ``cache=True`` stores the machine code on disk so the ~1 s compile is paid once, not
@@ -64,6 +71,8 @@ class RenderConfig:
                                     unit='m', low=0.0, high=0.05)
     cull_back_faces: bool = param(True, 'skip triangles facing away (closed, outward-wound '
                                   'meshes only)')
+    face_ids: bool = param(True, 'also keep the nearest triangle of every pixel (shading '
+                           'needs it; the tracker does not)')
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,8 +85,8 @@ class RenderResult:
         Camera-frame z of the nearest surface at each pixel centre; ``np.inf`` where empty.
     mask : (H, W) bool
         Silhouette: True where a triangle covers the pixel centre.
-    face_id : (H, W) int32
-        Index of the nearest triangle, -1 where empty.
+    face_id : (H, W) int32 or None
+        Index of the nearest triangle, -1 where empty; None unless ``RenderConfig.face_ids``.
     visible_vertices : (V,) bool
         Vertex visibility as defined in the module docstring.
     uv_px : (V, 2) float64
@@ -88,7 +97,7 @@ class RenderResult:
 
     depth_m: Float32Array
     mask: BoolArray
-    face_id: Int32Array
+    face_id: Int32Array | None
     visible_vertices: BoolArray
     uv_px: FloatArray
     vertex_depth_m: FloatArray
@@ -96,9 +105,9 @@ class RenderResult:
 
 @numba.njit(cache=True, nogil=True)
 def _rasterize(uv: FloatArray, z: FloatArray, faces: np.ndarray, width: int, height: int,
-               near: float, cull: bool) -> tuple[Float32Array, Int32Array]:
+               near: float, cull: bool, face_ids: bool) -> tuple[Float32Array, Int32Array]:
     zbuf = np.full((height, width), np.inf, dtype=np.float32)
-    fbuf = np.full((height, width), -1, dtype=np.int32)
+    fbuf = np.full((height if face_ids else 0, width if face_ids else 0), -1, dtype=np.int32)
     for f in range(faces.shape[0]):
         i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
         if z[i0] <= near or z[i1] <= near or z[i2] <= near:
@@ -123,7 +132,8 @@ def _rasterize(uv: FloatArray, z: FloatArray, faces: np.ndarray, width: int, hei
                 depth = np.float32(1.0 / (b0 * iz0 + b1 * iz1 + b2 * iz2))
                 if depth < zbuf[py, px]:
                     zbuf[py, px] = depth
-                    fbuf[py, px] = f
+                    if face_ids:
+                        fbuf[py, px] = f
     return zbuf, fbuf
 
 
@@ -177,9 +187,10 @@ def render(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
         raise ShapeError(msg)
     uv, z = camera.project(vertices_world)
     zbuf, fbuf = _rasterize(uv, z, faces_arr, camera.width, camera.height, config.near_m,
-                            config.cull_back_faces)
+                            config.cull_back_faces, config.face_ids)
     visible = _visible(uv, z, zbuf, config.near_m, config.visibility_tol_m)
     for arr in (uv, z, visible):
         arr.setflags(write=False)
-    return RenderResult(depth_m=zbuf, mask=fbuf >= 0, face_id=fbuf,
+    return RenderResult(depth_m=zbuf, mask=zbuf < np.inf,
+                        face_id=fbuf if config.face_ids else None,
                         visible_vertices=visible, uv_px=uv, vertex_depth_m=z)

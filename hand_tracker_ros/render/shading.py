@@ -56,10 +56,10 @@ def vertex_albedo(n_vertices: int, seed: int, config: ShadingConfig) -> FloatArr
     return np.asarray(config.skin_rgb, dtype=np.float64) * scalar * hue
 
 
-def _perspective_weights(raster: RenderResult, faces: np.ndarray, ys: np.ndarray,
+def _perspective_weights(raster: RenderResult, tri: np.ndarray, ys: np.ndarray,
                          xs: np.ndarray) -> FloatArray:
-    """(P, 3) perspective-correct barycentric weights of pixel centres in their triangle."""
-    tri = faces[raster.face_id[ys, xs]]
+    """(P, 3) perspective-correct barycentric weights of pixel centres (``ys``, ``xs``) in
+    their triangles ``tri`` (P, 3) of vertex ids."""
     uv = raster.uv_px[tri]
     (x0, y0), (x1, y1), (x2, y2) = uv[:, 0].T, uv[:, 1].T, uv[:, 2].T
     area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
@@ -95,6 +95,11 @@ def render_rgb(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
     -------
     image : (H, W, 3) uint8
         rgb8 image.
+
+    Raises
+    ------
+    ValueError
+        ``raster`` was rendered without triangle ids (``RenderConfig.face_ids``).
     """
     shape = (camera.height, camera.width, 3)
     if background.shape != shape or background.dtype != np.uint8:
@@ -104,10 +109,13 @@ def render_rgb(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
     normals = np.asarray(vertex_normals, dtype=np.float64)
     check_shape('vertex_normals', normals, (np.shape(vertices_world)[0], 3))
     if raster is None:
-        raster = render(camera, vertices_world, faces_arr, RenderConfig())
+        raster = render(camera, vertices_world, faces_arr, RenderConfig(face_ids=True))
+    if raster.face_id is None:
+        msg = '`raster` has no triangle ids: render it with RenderConfig(face_ids=True)'
+        raise ValueError(msg)
     ys, xs = np.nonzero(raster.mask)
-    w = _perspective_weights(raster, faces_arr, ys, xs)
     tri = faces_arr[raster.face_id[ys, xs]]
+    w = _perspective_weights(raster, tri, ys, xs)
     n_cam = np.einsum('pk,pkj->pj', w, normals[tri]) @ camera.R_cam_world.T
     n_cam /= np.maximum(np.linalg.norm(n_cam, axis=1, keepdims=True), 1e-12)
     light = np.asarray(config.light_dir_cam, dtype=np.float64)

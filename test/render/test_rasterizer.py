@@ -202,6 +202,23 @@ def test_culling_does_not_change_closed_meshes(seed):
     assert culled.mask.sum() > 500
 
 
+@pytest.mark.parametrize('cull', [True, False], ids=['culled', 'all faces'])
+def test_without_triangle_ids_the_view_is_the_same(cull):
+    """``face_ids=False`` (the tracker's views) keeps every other output to the last bit."""
+    mesh = random_parts_mesh(np.random.default_rng(7))
+    cam = _camera(2, distorted=True, width=160, height=120, fov_deg=30.0)
+    full = render(cam, mesh.vertices, mesh.faces, RenderConfig(cull_back_faces=cull))
+    lean = render(cam, mesh.vertices, mesh.faces,
+                  RenderConfig(cull_back_faces=cull, face_ids=False))
+    assert lean.face_id is None and full.face_id is not None
+    np.testing.assert_array_equal(full.mask, full.face_id >= 0)
+    np.testing.assert_array_equal(lean.mask, full.mask)
+    np.testing.assert_array_equal(lean.depth_m, full.depth_m)
+    np.testing.assert_array_equal(lean.visible_vertices, full.visible_vertices)
+    np.testing.assert_array_equal(lean.uv_px, full.uv_px)
+    assert full.mask.sum() > 500
+
+
 def test_bad_faces_are_rejected():
     cam = _frontal_camera()
     with pytest.raises(ShapeError, match='`faces` index out of range for 3 vertices'):

@@ -9,7 +9,7 @@ import trimesh
 from hand_tracker_ros.errors import ConfigError, ImageFormatError
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.render.background import BackgroundConfig, make_background
-from hand_tracker_ros.render.rasterizer import render
+from hand_tracker_ros.render.rasterizer import RenderConfig, render
 from hand_tracker_ros.render.shading import ShadingConfig, render_rgb
 
 
@@ -35,6 +35,14 @@ def test_render_rgb_composites_lit_skin_over_the_background():
     grey = image.astype(float).sum(axis=2)
     assert grey[mask & (np.arange(240)[:, None] < middle)].mean() > \
         grey[mask & (np.arange(240)[:, None] > middle)].mean() + 30.0
+
+
+def test_render_rgb_refuses_a_raster_without_triangle_ids():
+    cam, sphere = _scene()
+    raster = render(cam, sphere.vertices, sphere.faces, RenderConfig(face_ids=False))
+    with pytest.raises(ValueError, match='face_ids=True'):
+        render_rgb(cam, sphere.vertices, sphere.faces, sphere.vertex_normals,
+                   make_background(320, 240, seed=3), raster=raster)
 
 
 def test_render_rgb_is_deterministic_per_seed():
