@@ -31,6 +31,7 @@ No ROS package is imported here: the kit brings the message classes.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -106,19 +107,21 @@ class EstimateEncoder:
         self.joints = urdf_joints(model, root_link=world_frame)
 
     def messages(self, result: TrackResult, processing_time_s: float
-                 ) -> list[tuple[topics.Topic, Any]]:
+                 ) -> Iterator[tuple[topics.Topic, Any]]:
         """``(topic, message)`` for one estimate, in the order of the module docstring.
 
+        Each message is built when it is asked for, so a node that publishes as it iterates
+        sends the pose before it builds the markers and TF (1.1 of the 1.3 ms the four take).
         ``processing_time_s`` (s) goes into HandState: the node's receipt-to-publication time,
         or offline the result's ``timings_s['total']``.
         """
         tracking = result.status == TrackStatus.TRACKING
-        out = [(topics.JOINT_STATES, self.joint_state(result))] if tracking else []
-        out += [(topics.STATE, self.hand_state(result, processing_time_s)),
-                (topics.MARKERS, self.markers(result))]
         if tracking:
-            out.append((topics.TF, self.tf(result)))
-        return out
+            yield topics.JOINT_STATES, self.joint_state(result)
+        yield topics.STATE, self.hand_state(result, processing_time_s)
+        yield topics.MARKERS, self.markers(result)
+        if tracking:
+            yield topics.TF, self.tf(result)
 
     def robot_description(self) -> Any:
         """``std_msgs/String`` with the URDF whose root link is the world frame."""
