@@ -7,9 +7,9 @@ serves the newest complete set.
 """
 from __future__ import annotations
 
+import functools
 import traceback
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from functools import partial
 
 import rclpy
@@ -26,36 +26,51 @@ from hand_tracker_ros.ros_io.images import image_input, intrinsics_from_info, se
 from hand_tracker_ros.sync.approximate import ApproximateTimeSync, SyncConfig, SyncedSet
 
 
-@dataclass(frozen=True, eq=False)
 class ImageSet:
-    """One synchronized set of camera images, cameras in the node's order.
+    """One synchronized set of camera images, cameras in the node's order, decoded when first
+    read: a node that skips the set (:mod:`.plans`) never decodes it (a compressed image costs
+    a JPEG or PNG decode).
 
     Attributes
     ----------
     cameras : tuple of str
-    images_rgb : tuple of (H, W, 3) uint8
     headers : tuple of std_msgs/Header
         The input messages' headers (stamps and frame ids to publish with).
     """
 
-    cameras: tuple[str, ...]
-    images_rgb: tuple[UInt8Array, ...]
-    headers: tuple[Header, ...]
+    def __init__(self, cameras: tuple[str, ...], msgs: Sequence[Image | CompressedImage],
+                 sizes: dict[str, tuple[int, int]]) -> None:
+        self.cameras = cameras
+        self.headers: tuple[Header, ...] = tuple(m.header for m in msgs)
+        self._msgs = tuple(msgs)
+        self._sizes = dict(sizes)
+
+    @functools.cached_property
+    def images_rgb(self) -> tuple[UInt8Array, ...]:
+        """(H, W, 3) uint8 per camera, each of its camera_info's latest valid size.
+
+        Raises
+        ------
+        HandTrackerError
+            An image that cannot be decoded, or of another size than its camera_info.
+        """
+        return tuple(image_from_msg(m, source=c, expected_size_px=self._sizes.get(c))
+                     for c, m in zip(self.cameras, self._msgs))
 
 
 class ImageInputs:
-    """Every camera's image and camera_info subscriptions; whole synchronized sets, decoded,
-    on a worker thread, the newest first.
+    """Every camera's image and camera_info subscriptions; whole synchronized sets on a
+    worker thread, the newest first.
 
     Subscribes (sensor-data QoS) to ``<cam>/<image_topic>`` (``sensor_msgs/Image``) or, with
     ``transport='compressed'``, to ``<cam>/<image_topic>/compressed``
     (``sensor_msgs/CompressedImage``, image_transport's naming), and to ``<cam>/camera_info``,
     whose latest valid size each decoded image must have. Image messages are grouped by
     stamp (:mod:`hand_tracker_ros.sync.approximate`, ``slop_ms``); each complete set goes to a
-    :class:`~hand_tracker_ros.pipeline.live.NewestSetWorker`, which decodes it and calls
-    ``on_set``: a node that falls behind drops whole sets, and the sets it serves line up
-    across cameras. A set with an image that cannot be decoded is dropped with a throttled
-    error.
+    :class:`~hand_tracker_ros.pipeline.live.NewestSetWorker`, which calls ``on_set`` with it
+    (:class:`ImageSet`, decoded when read): a node that falls behind drops whole sets, and the
+    sets it serves line up across cameras. A set with an image that cannot be decoded is
+    dropped with a throttled error.
 
     Parameters
     ----------
@@ -87,7 +102,7 @@ class ImageInputs:
         self._sizes: dict[str, tuple[int, int]] = {}
         self._sync = ApproximateTimeSync(self._cameras, SyncConfig(slop_ns=round(slop_ms * 1e6)))
         self._worker: NewestSetWorker[SyncedSet] = NewestSetWorker(
-            self._decode_set, self._on_error, f'{node.get_name()}-sets')
+            self._serve_set, self._on_error, f'{node.get_name()}-sets')
         qos = sensor_qos(depth)
         msg_type, topic = image_input(transport, image_topic)
         for cam in self._cameras:
@@ -114,11 +129,11 @@ class ImageInputs:
             return
         self._sizes[camera] = (width, height)
 
-    def _decode_set(self, synced: SyncedSet) -> None:
-        msgs = [synced.items[c] for c in self._cameras]
-        images = tuple(image_from_msg(m, source=c, expected_size_px=self._sizes.get(c))
-                       for c, m in zip(self._cameras, msgs))
-        self._on_set(ImageSet(self._cameras, images, tuple(m.header for m in msgs)))
+    def _serve_set(self, synced: SyncedSet) -> None:
+        """(Worker thread.) The set to ``on_set``, decoded when it reads the images; a decode
+        error raised there is logged by :meth:`_on_error` like any failure of the set."""
+        self._on_set(ImageSet(self._cameras, [synced.items[c] for c in self._cameras],
+                              self._sizes))
 
     def summary(self) -> str:
         """Where the input sets went (for the log at shutdown)."""

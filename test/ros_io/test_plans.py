@@ -47,3 +47,31 @@ def test_gate_lets_one_set_through_per_plan_and_everything_without_plans() -> No
     assert gate.take(1.22 + REPEAT_S) is newer
     assert gate.take(2.3) == ObservationPlan.everything()     # the tracker went quiet
     assert gate.skipped == 3
+
+
+def test_a_skipped_set_is_never_decoded() -> None:
+    import time
+
+    import numpy as np
+
+    from hand_tracker_ros.errors import HandTrackerError
+    from hand_tracker_ros.ros_io.image_inputs import ImageSet
+    from hand_tracker_ros.ros_io.images import image_msg
+    from hand_tracker_ros.ros_io.outputs import header_at
+    from hand_tracker_ros.ros_io.plans import PlanGate, planned_set
+
+    def image_set(truncate: bool) -> ImageSet:
+        msgs = [image_msg(np.full((24, 32, 3), 7, np.uint8), header_at(5, cam))
+                for cam in ('cam0', 'cam1')]
+        if truncate:
+            msgs[1].data = bytes(msgs[1].data)[:-3]
+        return ImageSet(('cam0', 'cam1'), msgs, {'cam0': (32, 24), 'cam1': (32, 24)})
+
+    gate = PlanGate()
+    gate.offer(ObservationPlan.everything(), time.monotonic())
+    served = planned_set(gate, image_set(truncate=False), 16)
+    assert served is not None and [im.shape for im in served[0]] == [(12, 16, 3)] * 2
+    corrupt = image_set(truncate=True)
+    assert planned_set(gate, corrupt, 16) is None        # the plan was served: skipped
+    with pytest.raises(HandTrackerError, match='cam1'):  # its decode had not run
+        _ = corrupt.images_rgb
