@@ -30,7 +30,7 @@ from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.core.context import CollisionPairs, PreviousFrame, RoundContext
 from hand_tracker_ros.core.energy import PreparesFrames
 from hand_tracker_ros.core.observations import FrameObservations
-from hand_tracker_ros.core.views import ModelView, model_views
+from hand_tracker_ros.core.views import ModelView, model_views, moved_views
 from hand_tracker_ros.energies import flow
 from hand_tracker_ros.energies.registry import TermsConfig, build_terms
 from hand_tracker_ros.geometry.camera_model import Camera
@@ -68,7 +68,9 @@ class Fit:
     posed : PosedHand
         The model posed at ``theta``.
     views : tuple of ModelView
-        Its rendering in every camera.
+        Its rendering in every camera: the views the last round started from, carried to
+        ``theta`` (:func:`~hand_tracker_ros.core.views.moved_views`; rendered at ``theta``
+        when a separation round moved it).
     iterations : int
         LM iterations over all rounds and separation rounds.
     energy_costs : dict of str to float
@@ -138,7 +140,11 @@ class HandTracker:
                      observations: FrameObservations, timings: dict[str, float],
                      start_views: tuple[ModelView, ...] | None,
                      collisions: CollisionPairs | None, statuses: list[FitStatus]
-                     ) -> tuple[FloatArray, int, Problem, tuple[object, ...]]:
+                     ) -> tuple[FloatArray, int, Problem, tuple[object, ...],
+                                tuple[ModelView, ...]]:
+        """One round from ``theta``: views (``start_views`` if given), correspondences and LM;
+        returns the estimate, its iterations, the problem, the correspondences and the views
+        the round started from."""
         start = time.perf_counter()
         posed = self.model.pose(theta, jacobian=False)
         views = start_views if start_views is not None else self.views(posed)
@@ -159,7 +165,7 @@ class HandTracker:
                                      config=self._lm_config(), angular=Layout.revolute)
         timings['solve'] = timings.get('solve', 0.0) + time.perf_counter() - t0
         statuses.append(result.status)
-        return result.x, result.n_iterations, problem, tuple(correspondences)
+        return result.x, result.n_iterations, problem, tuple(correspondences), views
 
     def _solve_pso(self, theta: FloatArray, observations: FrameObservations,
                    timings: dict[str, float]
@@ -222,29 +228,35 @@ class HandTracker:
         collisions: CollisionPairs | None = None     # the frame's constraints so far
         plan = self._rounds if plan is None else plan
         round_s, full_done = 0.0, False
+        last_views: tuple[ModelView, ...] | None = None     # the last round's start
         for rnd in plan if self.config.solver == 'lm' else ():
             if full_done and deadline_s is not None and time.monotonic() + round_s > deadline_s:
                 break
             round_start = time.monotonic()
-            theta, n_iter, problem, correspondences = self._solve_round(
+            theta, n_iter, problem, correspondences, last_views = self._solve_round(
                 theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions,
                 statuses)
             collisions = dict(zip(problem.names, correspondences)).get('collision')
             start_views = None
             iterations += n_iter
             round_s, full_done = time.monotonic() - round_start, full_done or rnd.free.all()
+        separated_iterations = 0
         if self.config.solver == 'lm' and separate:
             t0 = time.perf_counter()
             separated = self._separator.separate(theta, collisions)
             timings['separation'] = time.perf_counter() - t0
             theta, posed = separated.theta, separated.posed
+            separated_iterations = separated.iterations
             iterations += separated.iterations
             statuses += separated.statuses
         else:
             posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
         t0 = time.perf_counter()
-        views = self.views(posed)
+        # The last round moved the hand little: its views carried to the estimate, unless a
+        # separation round moved it further (or PSO rendered none).
+        views = (moved_views(last_views, posed)
+                 if last_views is not None and separated_iterations == 0 else self.views(posed))
         timings['views'] = timings.get('views', 0.0) + time.perf_counter() - t0
         labels = tuple(getattr(c, 'labels', ()) for c in correspondences
                        if hasattr(c, 'labels'))
