@@ -68,8 +68,10 @@ def main() -> None:
             print(f'{width}x{height} {cam.name}: {result.mask.sum()} hand pixels')
             print(_row('project (numpy, distortion)', _time_ms(lambda: cam.project(verts))))
             print(_row('raster kernel', _time_ms(
-                lambda: _rasterize(uv, z, faces, width, height, 0.01, True))))
-            zbuf, _ = _rasterize(uv, z, faces, width, height, 0.01, True)
+                lambda: _rasterize(uv, z, faces, width, height, 0.01, True, True))))
+            print(_row('raster kernel, no triangle ids', _time_ms(
+                lambda: _rasterize(uv, z, faces, width, height, 0.01, True, False))))
+            zbuf, _ = _rasterize(uv, z, faces, width, height, 0.01, True, True)
             print(_row('visibility kernel', _time_ms(lambda: _visible(uv, z, zbuf, 0.01, 0.002))))
             print(_row('render() = project+raster+visibility',
                        _time_ms(lambda: render(cam, verts, faces))))

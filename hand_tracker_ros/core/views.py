@@ -56,10 +56,10 @@ def moved_views(views: Sequence[ModelView], posed: PosedHand) -> tuple[ModelView
     ``posed.vertices_m``; the mask, depth buffer, vertex visibility and the contour vertices
     with their normals stay those of the pose the views were rendered at.
 
-    The tracker's fit ends with these, carried from its last round's start (the last LM
-    round moves the hand little), instead of a fifth rendering: its fit took 0.93 of the time
-    in a lock-step A/B on ten held-out bags, with a mean error of 1.91 against 1.89 mm and the
-    same confidences (README, "Session of 2026-11-26 (fifth)").
+    A fit of two or more rounds ends with these, carried from its last round's start (after
+    an earlier round, the last moves the hand little), instead of a fourth rendering: its fit
+    took 0.93 of the time in a lock-step A/B on ten held-out bags, with a mean error of 1.91
+    against 1.89 mm and the same confidences (README, "Session of 2026-11-26 (fifth)").
     """
     out = []
     for view in views:

@@ -32,7 +32,7 @@ on the silhouette, whose own pixel may show background or a neighbouring face.
 
 Triangle ids (``face_ids``, default on) cost a second full-image buffer and a write per
 covered pixel. The tracker reads only the mask, the depth and the vertex visibility, and
-without the ids its fit took 0.85 of the time (in-process A/B on held-out bags, the same
+without the ids its fit took 0.975 of the time (lock-step A/B on held-out bags, the same
 estimates), so :func:`hand_tracker_ros.core.views.model_views` turns them off; shading needs
 them. The mask is the z-buffer's finite pixels either way (a covered pixel always has a
 finite depth).
@@ -172,12 +172,13 @@ def render(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
     faces : (F, 3) int
         Vertex indices of each triangle.
     config : RenderConfig
-        Near plane, visibility tolerance and back-face culling.
+        Near plane, visibility tolerance, back-face culling and whether to keep triangle ids.
 
     Returns
     -------
     RenderResult
-        Depth, mask, triangle ids, vertex visibility and the vertex projections.
+        Depth, mask, triangle ids (``config.face_ids``), vertex visibility and the vertex
+        projections.
     """
     faces_arr = np.ascontiguousarray(faces, dtype=np.int64)
     check_shape('faces', faces_arr, (None, 3))

@@ -111,7 +111,9 @@ class EstimateEncoder:
         """``(topic, message)`` for one estimate, in the order of the module docstring.
 
         Each message is built when it is asked for, so a node that publishes as it iterates
-        sends the pose before it builds the markers and TF (1.1 of the 1.3 ms the four take).
+        sends the pose before it builds the markers and TF (1.1 of the 1.3 ms the four take);
+        should building one fail, the messages before it are out. A writer that wants all or
+        none takes ``list()`` of it first.
         ``processing_time_s`` (s) goes into HandState: the node's receipt-to-publication time,
         or offline the result's ``timings_s['total']``.
         """

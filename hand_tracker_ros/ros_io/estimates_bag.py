@@ -35,7 +35,9 @@ def write_estimates(frames: Iterable[TrackedFrame], out: str | Path, world_frame
             if not done:
                 writer.write(topics.ROBOT_DESCRIPTION.absolute, result.stamp_ns,
                              encoder.robot_description())
-            for topic, msg in encoder.messages(result, result.timings_s.get('total', 0.0)):
+            # Built before any is written: a set's messages are in the bag all or none.
+            messages = list(encoder.messages(result, result.timings_s.get('total', 0.0)))
+            for topic, msg in messages:
                 writer.write(topic.absolute, result.stamp_ns, msg)
             done.append(frame)
     return done

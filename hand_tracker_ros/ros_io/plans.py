@@ -114,6 +114,13 @@ class PlanGate:
             self._served_s = now_s
             return self._plan
 
+    def release(self, plan: ObservationPlan) -> None:
+        """``plan`` (from :meth:`take`) was not used (its set could not be decoded): the next
+        set takes it, unless a newer plan came meanwhile."""
+        with self._lock:
+            if plan is self._plan:
+                self._served_s = None
+
 
 def follow_plans(node: Node, cameras: Sequence[str], throttle_s: float) -> PlanGate:
     """A gate fed by ``node``'s subscription to the tracker's plans (reliable, depth 1: only
@@ -141,8 +148,20 @@ def plan_summary(gate: PlanGate | None) -> str:
 def planned_set(gate: PlanGate | None, image_set: ImageSet, working_width_px: int
                 ) -> tuple[list[UInt8Array], ObservationPlan] | None:
     """What an upstream node observes of ``image_set``: its images at the working width with
-    the gate's plan (everything without a gate), or None when the gate skips the set."""
+    the gate's plan (everything without a gate), or None when the gate skips the set.
+
+    Raises
+    ------
+    HandTrackerError
+        An image of the set cannot be decoded; the gate's plan goes to the next set.
+    """
     plan = ObservationPlan.everything() if gate is None else gate.take(time.monotonic())
     if plan is None:
         return None
-    return [to_width(image, working_width_px) for image in image_set.images_rgb], plan
+    try:
+        images = image_set.images_rgb
+    except HandTrackerError:
+        if gate is not None:        # a corrupt set does not use up the plan
+            gate.release(plan)
+        raise
+    return [to_width(image, working_width_px) for image in images], plan

@@ -68,9 +68,9 @@ class Fit:
     posed : PosedHand
         The model posed at ``theta``.
     views : tuple of ModelView
-        Its rendering in every camera: the views the last round started from, carried to
-        ``theta`` (:func:`~hand_tracker_ros.core.views.moved_views`; rendered at ``theta``
-        when a separation round moved it).
+        Its rendering in every camera: after two or more rounds the views the last round
+        started from, carried to ``theta`` (:func:`~hand_tracker_ros.core.views.moved_views`);
+        rendered at ``theta`` after a single round or when a separation round moved it.
     iterations : int
         LM iterations over all rounds and separation rounds.
     energy_costs : dict of str to float
@@ -228,14 +228,16 @@ class HandTracker:
         collisions: CollisionPairs | None = None     # the frame's constraints so far
         plan = self._rounds if plan is None else plan
         round_s, full_done = 0.0, False
-        last_views: tuple[ModelView, ...] | None = None     # the last round's start
-        for rnd in plan if self.config.solver == 'lm' else ():
+        # The views the last round started from, when an earlier round of this fit led there.
+        last_views: tuple[ModelView, ...] | None = None
+        for n_round, rnd in enumerate(plan if self.config.solver == 'lm' else ()):
             if full_done and deadline_s is not None and time.monotonic() + round_s > deadline_s:
                 break
             round_start = time.monotonic()
-            theta, n_iter, problem, correspondences, last_views = self._solve_round(
+            theta, n_iter, problem, correspondences, round_views = self._solve_round(
                 theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions,
                 statuses)
+            last_views = round_views if n_round > 0 else None
             collisions = dict(zip(problem.names, correspondences)).get('collision')
             start_views = None
             iterations += n_iter
@@ -253,8 +255,10 @@ class HandTracker:
             posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
         t0 = time.perf_counter()
-        # The last round moved the hand little: its views carried to the estimate, unless a
-        # separation round moved it further (or PSO rendered none).
+        # After an earlier round, the last one moves the hand little: its views carried to
+        # the estimate. Rendered at the estimate after a single round (a short fit from a
+        # hypothesis, which moves the hand far, or a one-round schedule, which would carry
+        # the same raster from set to set), after a separation round, and for PSO.
         views = (moved_views(last_views, posed)
                  if last_views is not None and separated_iterations == 0 else self.views(posed))
         timings['views'] = timings.get('views', 0.0) + time.perf_counter() - t0

@@ -49,7 +49,7 @@ def test_gate_lets_one_set_through_per_plan_and_everything_without_plans() -> No
     assert gate.skipped == 3
 
 
-def test_a_skipped_set_is_never_decoded() -> None:
+def test_a_skipped_set_is_never_decoded_and_a_corrupt_one_leaves_the_plan() -> None:
     import time
 
     import numpy as np
@@ -68,9 +68,13 @@ def test_a_skipped_set_is_never_decoded() -> None:
         return ImageSet(('cam0', 'cam1'), msgs, {'cam0': (32, 24), 'cam1': (32, 24)})
 
     gate = PlanGate()
-    gate.offer(ObservationPlan.everything(), time.monotonic())
+    plan = ObservationPlan([(0, 0, 8, 8), None], detect=False)
+    gate.offer(plan, time.monotonic())
+    with pytest.raises(HandTrackerError, match='cam1'):  # a corrupt set leaves the plan
+        planned_set(gate, image_set(truncate=True), 16)
     served = planned_set(gate, image_set(truncate=False), 16)
-    assert served is not None and [im.shape for im in served[0]] == [(12, 16, 3)] * 2
+    assert served is not None and served[1] is plan
+    assert [im.shape for im in served[0]] == [(12, 16, 3)] * 2
     corrupt = image_set(truncate=True)
     assert planned_set(gate, corrupt, 16) is None        # the plan was served: skipped
     with pytest.raises(HandTrackerError, match='cam1'):  # its decode had not run
