@@ -10,6 +10,8 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.model.hand import PosedHand
 from hand_tracker_ros.render.contours import (
@@ -70,4 +72,15 @@ def moved_views(views: Sequence[ModelView], posed: PosedHand) -> tuple[ModelView
         contours = dataclasses.replace(view.contours, uv_px=uv[view.contours.vertex_ids])
         out.append(ModelView(view.camera, raster, contours))
     return tuple(out)
+
+
+def contour_shift_px(before: Sequence[ModelView], after: Sequence[ModelView]) -> float:
+    """How far the contour points of ``before`` moved in ``after`` (its :func:`moved_views`),
+    px: the median over a camera's contour vertices of ``|uv_after - uv_before|``, the
+    largest over the cameras (0 without contour points; NaN when a point went behind a
+    camera)."""
+    shifts = [np.median(np.linalg.norm(
+        a.raster.uv_px[b.contours.vertex_ids] - b.raster.uv_px[b.contours.vertex_ids], axis=1))
+        for b, a in zip(before, after) if b.contours.vertex_ids.size]
+    return float(np.max(shifts)) if shifts else 0.0
 

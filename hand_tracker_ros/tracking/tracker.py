@@ -30,7 +30,12 @@ from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.core.context import CollisionPairs, PreviousFrame, RoundContext
 from hand_tracker_ros.core.energy import PreparesFrames
 from hand_tracker_ros.core.observations import FrameObservations
-from hand_tracker_ros.core.views import ModelView, model_views, moved_views
+from hand_tracker_ros.core.views import (
+    ModelView,
+    contour_shift_px,
+    model_views,
+    moved_views,
+)
 from hand_tracker_ros.energies import flow
 from hand_tracker_ros.energies.registry import TermsConfig, build_terms
 from hand_tracker_ros.geometry.camera_model import Camera
@@ -50,6 +55,11 @@ class TrackerConfig:
 
     solver: str = param('lm', 'Levenberg-Marquardt (the method) or PSO (the HOPE baseline)',
                         choices=('lm', 'pso'))
+    carry_views_px: float = param(1.0, "a fit ends with its last round's views carried to the "
+                                  'estimate when their contour moved at most this much in that '
+                                  'round (the median per camera, the largest camera), else '
+                                  'renders them again (0: unless nothing moved)', unit='px',
+                                  low=0.0, high=100.0)
     schedule: ScheduleConfig = nested(ScheduleConfig)
     separation: SeparationConfig = nested(SeparationConfig)
     lm: LMConfig = nested(LMConfig)
@@ -69,8 +79,9 @@ class Fit:
         The model posed at ``theta``.
     views : tuple of ModelView
         Its rendering in every camera: after two or more rounds the views the last round
-        started from, carried to ``theta`` (:func:`~hand_tracker_ros.core.views.moved_views`);
-        rendered at ``theta`` after a single round or when a separation round moved it.
+        started from, carried to ``theta`` (:func:`~hand_tracker_ros.core.views.moved_views`)
+        when that round moved their contour at most ``carry_views_px``; otherwise rendered
+        at ``theta``.
     iterations : int
         LM iterations over all rounds and separation rounds.
     energy_costs : dict of str to float
@@ -255,12 +266,18 @@ class HandTracker:
             posed = self.model.pose(theta, jacobian=False)
         assert problem is not None
         t0 = time.perf_counter()
-        # After an earlier round, the last one moves the hand little: its views carried to
-        # the estimate. Rendered at the estimate after a single round (a short fit from a
-        # hypothesis, which moves the hand far, or a one-round schedule, which would carry
-        # the same raster from set to set), after a separation round, and for PSO.
-        views = (moved_views(last_views, posed)
-                 if last_views is not None and separated_iterations == 0 else self.views(posed))
+        # After an earlier round the last one usually moves the hand a fraction of a pixel:
+        # its views carried to the estimate. Rendered at the estimate when it moved more,
+        # after a single round (a short fit from a hypothesis, which moves the hand far, or a
+        # one-round schedule, which would carry the same raster from set to set), after a
+        # separation round, and for PSO.
+        views: tuple[ModelView, ...] | None = None
+        if last_views is not None and separated_iterations == 0:
+            views = moved_views(last_views, posed)
+            if not contour_shift_px(last_views, views) <= self.config.carry_views_px:
+                views = None
+        if views is None:
+            views = self.views(posed)
         timings['views'] = timings.get('views', 0.0) + time.perf_counter() - t0
         labels = tuple(getattr(c, 'labels', ()) for c in correspondences
                        if hasattr(c, 'labels'))

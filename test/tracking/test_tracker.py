@@ -231,6 +231,14 @@ def test_a_fit_ends_with_its_last_round_views_carried_to_the_estimate(hand_model
         # The raster is the last round's start, a pose a fraction of a pixel away.
         changed.append((view.raster.mask != fresh.raster.mask).mean())
     assert 0.0 < max(changed) < 0.002
+    # carry_views_px 0: a round that moved the contour at all renders them again.
+    exact = OfflinePipeline(hand_model, sequence.rig,
+                            from_mapping(PipelineConfig, {'tracker.carry_views_px': 0.0}))
+    exact.session.reset(frames[0].theta)
+    fit = exact.tracker.fit(observations)
+    exact.close()
+    for view, fresh in zip(fit.views, model_views(fit.posed, edges, sequence.rig.cameras)):
+        np.testing.assert_array_equal(view.raster.mask, fresh.raster.mask)
     # One round from a perturbed start (a hypothesis' short fit): rendered at the estimate.
     start = frames[1].theta.copy()
     start[PARAM_NAMES.index('index_mcp_flex')] += 0.3
@@ -254,3 +262,22 @@ def test_a_fit_ends_with_its_last_round_views_carried_to_the_estimate(hand_model
         np.testing.assert_array_equal(view.contours.vertex_ids, fresh.contours.vertex_ids)
     pipeline.close()
     separating.close()
+
+
+def test_contour_shift_is_the_largest_camera_median(hand_model, grasp) -> None:
+    from hand_tracker_ros.core.views import contour_shift_px, model_views, moved_views
+    from hand_tracker_ros.render.contours import MeshEdges
+
+    sequence, frames = grasp
+    edges = MeshEdges.from_faces(hand_model.faces)
+    posed = hand_model.pose(frames[2].theta, jacobian=False)
+    views = model_views(posed, edges, sequence.rig.cameras)
+    assert contour_shift_px(views, moved_views(views, posed)) == 0.0
+    theta = frames[2].theta.copy()
+    theta[0] += 0.002                    # 2 mm along x: about a pixel or two in every camera
+    moved = moved_views(views, hand_model.pose(theta, jacobian=False))
+    expected = max(float(np.median(np.linalg.norm(
+        m.raster.uv_px[v.contours.vertex_ids] - v.raster.uv_px[v.contours.vertex_ids],
+        axis=1))) for v, m in zip(views, moved))
+    assert contour_shift_px(views, moved) == pytest.approx(expected)
+    assert 0.5 < expected < 5.0
