@@ -59,9 +59,10 @@ def moved_views(views: Sequence[ModelView], posed: PosedHand) -> tuple[ModelView
     with their normals stay those of the pose the views were rendered at.
 
     A fit of two or more rounds ends with these, carried from its last round's start (after
-    an earlier round, the last moves the hand little), instead of a fourth rendering: its fit
-    took 0.93 of the time in a lock-step A/B on ten held-out bags, with a mean error of 1.91
-    against 1.89 mm and the same confidences (README, "Session of 2026-11-26 (fifth)").
+    an earlier round, the last moves the hand little: :func:`contour_shift_px` at most the
+    tracker's ``carry_views_px``), instead of a fourth rendering: its fit took 0.93 of the
+    time in lock-step A/Bs on held-out bags, with the same accuracy within their noise
+    (README, "Fewer renderings a set").
     """
     out = []
     for view in views:
