@@ -109,7 +109,7 @@ def test_the_rclpy_and_the_rosbags_kit_build_the_same_messages(hand_model) -> No
     live = _encoder(hand_model, hand_model.faces)
     for status in TrackStatus:
         result = _result(hand_model, status)
-        pairs = list(zip(bag.messages(result, 0.5), live.messages(result, 0.5)))
+        pairs = list(zip(bag.messages(result, 0.5), live.messages(result, 0.5), strict=True))
         assert pairs and all(b[0] == lv[0] for b, lv in pairs)
         for (topic, from_bag), (_, from_node) in pairs:
             cls = message_class(topic.msgtype)
