@@ -31,6 +31,14 @@ class ImageSet:
     read: a node that skips the set (:mod:`.plans`) never decodes it (a compressed image costs
     a JPEG or PNG decode).
 
+    Parameters
+    ----------
+    cameras : tuple of str
+    msgs : sequence of sensor_msgs/Image or sensor_msgs/CompressedImage
+        The set's image messages, in ``cameras`` order.
+    sizes : dict of str to (width, height)
+        Each camera's image size from its latest valid camera_info, where one came.
+
     Attributes
     ----------
     cameras : tuple of str
