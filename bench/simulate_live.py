@@ -39,7 +39,7 @@ from collections import Counter
 
 import numpy as np
 
-from hand_tracker_ros.config import from_mapping
+from hand_tracker_ros.config import from_mapping, overrides
 from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.errors import HandTrackerError
 from hand_tracker_ros.evaluation.metrics import joint_errors_mm
@@ -129,12 +129,6 @@ def main() -> None:
                              'first on each seed')
     parser.add_argument('--repeats', type=int, default=1, help='runs of each seed')
     args = parser.parse_args()
-    import yaml
-
-    def overrides(items: list[str]) -> dict:
-        return {key: yaml.safe_load(value) for key, value
-                in (item.split('=', 1) for item in items)}
-
     settings = {' '.join(args.set) or 'defaults': overrides(args.set)}
     if args.vs is not None:
         settings[' '.join(args.vs) or 'defaults'] = {**overrides(args.set), **overrides(args.vs)}

@@ -17,8 +17,10 @@ from __future__ import annotations
 import dataclasses
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, TypeVar
+
+import yaml
 
 from hand_tracker_ros.errors import ConfigError
 
@@ -110,6 +112,29 @@ def from_mapping(cls: type[T], mapping: Mapping[str, Any] | None = None, *,
             node = node.setdefault(part, {})
         node[leaf] = value
     return _build(cls, tree, prefix)
+
+
+def overrides(items: Sequence[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` strings (dotted keys, YAML values) as a mapping for :func:`from_mapping`,
+    e.g. ``['tracker.schedule.full_rounds=1']`` for the benches' command lines.
+
+    Raises
+    ------
+    ConfigError
+        An item without ``=`` or with a value that is not YAML.
+    """
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition('=')
+        if not sep or not key:
+            msg = f'override {item!r}: expected KEY=VALUE'
+            raise ConfigError(msg)
+        try:
+            out[key] = yaml.safe_load(text)
+        except yaml.YAMLError as err:
+            msg = f'override {item!r}: the value is not YAML ({err})'
+            raise ConfigError(msg) from err
+    return out
 
 
 def _build(cls: type[T], tree: dict[str, Any], prefix: str) -> T:

@@ -11,7 +11,7 @@ import yaml
 from hand_tracker_ros import node_config
 from hand_tracker_ros.ament import share_file
 from hand_tracker_ros.cli.params import default_parameters_yaml
-from hand_tracker_ros.config import describe, flatten, from_mapping, nested, param
+from hand_tracker_ros.config import describe, flatten, from_mapping, nested, overrides, param
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.graph_nodes import NODES
 
@@ -50,6 +50,15 @@ def test_dotted_and_nested_mappings_agree() -> None:
 def test_bad_values_name_the_field(mapping: dict, message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         from_mapping(Outer, mapping)
+
+
+def test_command_line_overrides_are_dotted_keys_with_yaml_values() -> None:
+    parsed = overrides(['a.b=1', 'c=true', 'd=[1, 2]', 'e=x=y'])
+    assert parsed == {'a.b': 1, 'c': True, 'd': [1, 2], 'e': 'x=y'}
+    with pytest.raises(ConfigError, match="override 'a.b': expected KEY=VALUE"):
+        overrides(['a.b'])
+    with pytest.raises(ConfigError, match='is not YAML'):
+        overrides(['a=[1'])
 
 
 def test_describe_carries_docs_and_ranges() -> None:
