@@ -17,6 +17,7 @@ from hand_tracker_ros.tracking.session import SessionConfig
 from hand_tracker_ros.tracking.tracker import TrackerConfig
 from hand_tracker_ros.vision.detector.detector import DetectorConfig
 from hand_tracker_ros.vision.features import FeaturesConfig
+from hand_tracker_ros.vision.resolution import LIVE_WIDTH_PX
 
 DEFAULT_CAMERAS = ('cam0', 'cam1', 'cam2', 'cam3')
 IMAGE_TRANSPORTS = ('raw', 'compressed')
@@ -35,9 +36,10 @@ class FeaturesNodeConfig:
     sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set; whole sets '
                                 'are served, the newest first', unit='ms', low=0.1,
                                 high=1000.0)
-    working_width_px: int = param(320, 'observe images wider than this scaled down to it '
-                                  "(vision/resolution.py); the tracker's working_width_px "
-                                  'must be the same', unit='px', low=0, high=100000)
+    working_width_px: int = param(LIVE_WIDTH_PX, 'observe images wider than this scaled '
+                                  'down to it (vision/resolution.py); the tracker\'s '
+                                  'working_width_px must be the same', unit='px', low=0,
+                                  high=100000)
     follow_plan: bool = param(True, "observe one set per plan of the tracker on "
                               "'hand/observation_plan', in its regions of interest "
                               '(ros_io/plans.py); without a recent plan, every set whole')
@@ -57,9 +59,10 @@ class SalientPointsNodeConfig:
     sync_slop_ms: float = param(16.0, 'largest stamp spread within one camera set; whole sets '
                                 'are served, the newest first', unit='ms', low=0.1,
                                 high=1000.0)
-    working_width_px: int = param(320, 'observe images wider than this scaled down to it '
-                                  "(vision/resolution.py); the tracker's working_width_px "
-                                  'must be the same', unit='px', low=0, high=100000)
+    working_width_px: int = param(LIVE_WIDTH_PX, 'observe images wider than this scaled '
+                                  'down to it (vision/resolution.py); the tracker\'s '
+                                  'working_width_px must be the same', unit='px', low=0,
+                                  high=100000)
     follow_plan: bool = param(True, "detect in one set per plan of the tracker on "
                               "'hand/observation_plan', in its regions of interest, when it "
                               'asks for detection (ros_io/plans.py); without a recent plan, '
@@ -91,7 +94,7 @@ class TrackerNodeConfig:
                                  "'compressed' (jpeg, png) on <cam>/<image_topic>/compressed",
                                  choices=IMAGE_TRANSPORTS)
     attention: AttentionConfig = nested(AttentionConfig)
-    working_width_px: int = param(320, 'track wider images scaled down to this width '
+    working_width_px: int = param(LIVE_WIDTH_PX, 'track wider images scaled down to this width '
                                   '(vision/resolution.py): a 640x480 rig then costs what a '
                                   '320x240 one does, at about twice its error; 0: at their '
                                   "own size. With inputs 'features' the features and "

@@ -17,6 +17,10 @@ from hand_tracker_ros._typing import UInt8Array
 from hand_tracker_ros.errors import ShapeError
 from hand_tracker_ros.geometry.camera_model import Camera
 
+# The live graph's working width (px): the tracker node's, and the distributed features and
+# salient_points nodes', which must observe at the tracker's size.
+LIVE_WIDTH_PX = 320
+
 
 def working_size(width: int, height: int, width_px: int) -> tuple[int, int]:
     """(width, height) in px of a ``width`` x ``height`` image at the working width
