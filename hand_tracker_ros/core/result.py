@@ -42,7 +42,8 @@ class TrackResult:
         salient term: per camera, detection -> finger, -1 unassigned; the limits term: the
         active constraints).
     recovered_from : str
-        The hypothesis the estimate came from when recovery ran (empty otherwise).
+        Where the estimate came from when it did not continue the last one (empty otherwise):
+        a recovery hypothesis, ``'search'``, or ``'initial_pose'`` (a restart there).
     lm_statuses : tuple of FitStatus
         Why each Levenberg-Marquardt call of the kept fit stopped (``Fit.lm_statuses``).
     """

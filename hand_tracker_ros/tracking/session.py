@@ -198,8 +198,9 @@ class TrackingSession:
             t0 = time.perf_counter()
             self._start(observations, timings, restart=True)
             self.restarts += 1
-            searched = self._judge('search', self._fit(observations, None, timings),
-                                   observations)
+            # Without the search, the restart is a fit from ``initial_pose``; named so.
+            searched = self._judge('search' if self._searches(restart=True) else 'initial_pose',
+                                   self._fit(observations, None, timings), observations)
             iterations += searched.fit.iterations
             timings['search'] = time.perf_counter() - t0
             if searched.confidence > judged.confidence:
