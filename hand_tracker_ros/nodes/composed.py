@@ -44,6 +44,11 @@ class InProcessObserver:
         self._tracker, self._features, self._salient = tracker, features, salient
         self._attention = Attention(tracker.config.attention, tracker.working_cameras)
 
+    def next_kind(self) -> tuple[bool, bool]:
+        """The kind of the next set's plan (tracked, detects): the live loop predicts its
+        observation's and its fit's durations by it."""
+        return self._attention.next_kind(self._tracker.session)
+
     def __call__(self, synced: SyncedSet) -> FrameObservations:
         cameras = self._tracker.working_cameras
         msgs = [synced.items[c.name] for c in cameras]
@@ -70,7 +75,8 @@ def compose() -> Sequence[Node]:
     cameras = tracker.config.cameras
     features = FeaturesNode(in_process=True, cameras=cameras)
     salient = SalientPointsNode(in_process=True, cameras=cameras)
-    tracker.start(InProcessObserver(tracker, features, salient))
+    observer = InProcessObserver(tracker, features, salient)
+    tracker.start(observer, kind=observer.next_kind)
     # run_node destroys the nodes in reverse: the tracker, whose pipeline threads call the
     # other two, stops first.
     return [features, salient, tracker]

@@ -52,7 +52,7 @@ from __future__ import annotations
 import threading
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from functools import partial
 from types import MappingProxyType
 from typing import Any
@@ -164,21 +164,26 @@ class TrackerNode(Node):
         self._init_state()
         self._create_outputs()
         if self.config.inputs == 'features':
+            assert self._attention is not None
+            attention = self._attention
             self.start(lambda synced: frame_observations(synced.stamp_ns, synced.items,
-                                                         self.working_cameras))
+                                                         self.working_cameras),
+                       kind=lambda: attention.next_kind(self._session))
 
     @property
     def session(self) -> TrackingSession:
         """The tracking session (its status steers the in-process detection)."""
         return self._session
 
-    def start(self, observe: Callable[[SyncedSet], FrameObservations]) -> None:
+    def start(self, observe: Callable[[SyncedSet], FrameObservations],
+              kind: Callable[[], Hashable] | None = None) -> None:
         """Warm up, then subscribe to the inputs and track: ``observe`` turns a synchronized
-        set (feature frames, or image messages with ``inputs:=images``) into observations."""
+        set (feature frames, or image messages with ``inputs:=images``) into observations;
+        ``kind`` tells the kind of the next observation (:class:`LivePipeline`)."""
         if self.config.warm_up:
             self.get_logger().info(f'JIT kernels loaded in {warm_up(self._model):.1f} s')
         self._pipeline = LivePipeline(lambda synced: self._prepared(observe(synced)),
-                                      self._track, self._on_error)
+                                      self._track, self._on_error, kind)
         try:
             self._create_inputs()
         except BaseException:

@@ -10,17 +10,33 @@ the work:
 
 Every observed set is tracked (optical flow and the warm start are relative to the previous
 tracked set, so none may be skipped after observing). The two overlap, *just in time*: while
-a fit runs, the observer waits until the fit's earliest expected end (the shortest of the
-last fits) minus the expected observation (the longest of the last ones) and a margin, and
-only then takes the newest offered set, so that the next fit starts on a set as fresh as
-possible and still does not wait for it. The throughput is one set per fit; the latency of a
-set is its wait for the observer, its observation, what is left of the fit in progress, and
-its own fit. Starting the observation right after the tracker took a set (the earlier
-policy) left the observed set waiting for most of the fit: on the live 4 x 320x240 graph the
-median latency was 127 ms, 117 ms with this. The prediction errs early on purpose: a late
-observation idles the tracker. With the median of the last fits, the fits of a live search
-(about 250 ms each) kept the observer waiting that long after the search had found the hand
-and the fits took 50 ms: the tracked hand got one set in five.
+a fit runs, the observer waits until the fit's expected end minus the expected observation
+and a margin, and only then takes the newest offered set, so that the next fit starts on a
+set as fresh as possible. The throughput is one set per fit; the latency of a set is its wait
+for the observer, its observation, what is left of the fit in progress, and its own fit.
+Starting the observation right after the tracker took a set (the earliest policy) left the
+observed set waiting for most of the fit: on the live 4 x 320x240 graph the median latency
+was 127 ms, 117 ms just in time.
+
+Both durations are predicted per *kind* of set (``kind``, asked before the observer
+schedules a set; the graph's kind is the attention plan's: tracked or not, fingertips
+detected or not), by the median of that kind's recent ones: the fit in progress by its own
+kind's fits, the coming observation by its kind's observations. A kind without a measured
+duration yet starts the observation at once. Why per kind and the median:
+
+- A live search's fits take about 250 ms, a tracking fit 40-50 ms: predicted by the fits of
+  any kind, the first tracked sets after a search waited that long (the tracked hand got one
+  set in five). An observation with fingertip detection takes about 10 ms more than one
+  without.
+- Before, the prediction took the shortest recent fit and the longest recent observation,
+  erring early on purpose (a late observation idles the tracker). Fits vary by their rounds
+  (a fit over its budget skips its last one) and observations by what they detect, so it
+  erred early by most of that spread. In one live run (random, 4 x 320x240, composed) an
+  observed set then waited a median 13-18 ms for the fit in progress, of about 100 ms of
+  latency. Replaying that run's measured durations, the medians leave the set about 7 ms of
+  wait and idle the tracker about 1 ms a set on average. In eight live pairs with the old
+  rule (README, "Session of 2026-11-26 (sixth)") the median latency fell in seven, by a
+  median of 9.5 ms, at about the same estimates per second.
 
 Why plain threads and not a MultiThreadedExecutor: the one-slot mailboxes state the "newest
 set wins" policy directly, and the executor thread stays free for callbacks and timers
@@ -29,10 +45,11 @@ NumPy and numba code that runs beside the other thread on a second core.
 """
 from __future__ import annotations
 
+import statistics
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from typing import Generic, TypeVar
 
 Item = TypeVar('Item')
@@ -60,16 +77,18 @@ class LatestSet(Generic[Item]):
             self._item = (item, received_s)
             self._cond.notify_all()
 
-    def take(self, timeout_s: float, on_take: Callable[[], None] | None = None
+    def take(self, timeout_s: float,
+             on_take: Callable[[tuple[Item, float]], None] | None = None
              ) -> tuple[Item, float] | None:
         """The newest item with its receipt time, or None after ``timeout_s``.
-        ``on_take`` runs when an item is taken, before a waiter on the empty slot wakes."""
+        ``on_take(taken)`` runs when an item is taken, before a waiter on the empty slot
+        wakes."""
         with self._cond:
             if self._item is None:
                 self._cond.wait(timeout_s)
             item, self._item = self._item, None
             if item is not None and on_take is not None:
-                on_take()
+                on_take(item)
             self._cond.notify_all()
             return item
 
@@ -143,19 +162,27 @@ class LivePipeline(Generic[Item, Observed]):
         ``track(item, observed, received_s)``: fit and publish one set.
     on_error : callable
         Called with each exception either stage raised; the threads keep running.
+    kind : callable, optional
+        ``kind() -> key``: the kind of the next set (e.g. the attention plan's), asked when
+        the observer schedules it; its observation's and its fit's durations are predicted
+        from that kind's (default: one kind).
     """
 
     def __init__(self, observe: Callable[[Item], Observed],
                  track: Callable[[Item, Observed, float], None],
-                 on_error: Callable[[BaseException], None]) -> None:
+                 on_error: Callable[[BaseException], None],
+                 kind: Callable[[], Hashable] | None = None) -> None:
         self._observe, self._track, self._on_error = observe, track, on_error
+        self._kind = kind if kind is not None else (lambda: None)
         self._inbox: LatestSet[Item] = LatestSet()
-        self._observed: LatestSet[tuple[Item, Observed]] = LatestSet()
+        self._observed: LatestSet[tuple[Item, Observed, Hashable]] = LatestSet()
         self._last_offer_s: float | None = None
         self.period_s: float | None = None   # moving average of the gaps between offers, s
-        self._fit_s: deque[float] = deque(maxlen=_RECENT)        # the last fits' durations, s
-        self._observe_s: deque[float] = deque(maxlen=_RECENT)    # the last observations', s
+        # The last fits' and observations' durations (s) per kind of set.
+        self._fit_s: dict[Hashable, deque[float]] = {}
+        self._observe_s: dict[Hashable, deque[float]] = {}
         self._fit_since: float | None = None   # monotonic start of the fit in progress
+        self._fit_kind: Hashable = None        # the kind of its set
         self._stop = threading.Event()
         self._threads = [threading.Thread(target=self._observer, name='observer', daemon=True),
                          threading.Thread(target=self._tracker, name='tracker', daemon=True)]
@@ -182,36 +209,42 @@ class LivePipeline(Generic[Item, Observed]):
         for thread in self._threads:
             thread.join(timeout_s)
 
-    def observe_at(self) -> float | None:
-        """When (monotonic s) the next observation should start: the fit in progress's
-        expected end less the expected observation and a margin; None when no fit runs or
-        nothing has been measured yet (start at once). The shortest recent fit, because a
-        fit may be much shorter than the last ones (tracking after a search); the longest
-        recent observation, which covers those with detection."""
-        since = self._fit_since
-        if since is None or not self._fit_s or not self._observe_s:
+    def observe_at(self, kind: Hashable = None) -> float | None:
+        """When (monotonic s) the next observation, of a set of ``kind``, should start: the
+        fit in progress's expected end less the expected observation and a margin; None
+        (start at once) when no fit runs or either kind has no measured duration yet. Each
+        expected duration is the median of its kind's recent ones (module docstring)."""
+        since, fits = self._fit_since, self._fit_s.get(self._fit_kind)
+        observations = self._observe_s.get(kind)
+        if since is None or not fits or not observations:
             return None
-        observe_s = max(self._observe_s)
-        return (since + min(self._fit_s) - observe_s
+        observe_s = statistics.median(observations)
+        return (since + statistics.median(fits) - observe_s
                 - max(_MARGIN * observe_s, _MARGIN_MIN_S))
 
-    def _wait_for_fit(self) -> None:
+    def _wait_for_fit(self, kind: Hashable) -> None:
         """Sleep until :meth:`observe_at` (re-read: a fit may end or start meanwhile)."""
         while not self._stop.is_set():
-            start_at = self.observe_at()
+            start_at = self.observe_at(kind)
             wait_s = 0.0 if start_at is None else start_at - time.monotonic()
             if wait_s <= 0.0:
                 return
             self._stop.wait(min(wait_s, _POLL_S))
 
-    def _fit_starts(self) -> None:
+    def _fit_starts(self, taken: tuple[tuple[Item, Observed, Hashable], float]) -> None:
+        self._fit_kind = taken[0][2]
         self._fit_since = time.monotonic()
 
     def _observer(self) -> None:
         while not self._stop.is_set():
             if not self._observed.wait_empty(_POLL_S):
                 continue
-            self._wait_for_fit()
+            try:
+                kind = self._kind()
+            except Exception as err:  # noqa: BLE001 - the thread must outlive it
+                self._on_error(err)
+                kind = None
+            self._wait_for_fit(kind)
             taken = self._inbox.take(_POLL_S)
             if taken is None:
                 continue
@@ -222,15 +255,16 @@ class LivePipeline(Generic[Item, Observed]):
             except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set
                 self._on_error(err)
                 continue
-            self._observe_s.append(time.monotonic() - start)
-            self._observed.put((item, observed), received_s)
+            self._observe_s.setdefault(kind, deque(maxlen=_RECENT)).append(
+                time.monotonic() - start)
+            self._observed.put((item, observed, kind), received_s)
 
     def _tracker(self) -> None:
         while not self._stop.is_set():
             taken = self._observed.take(_POLL_S, on_take=self._fit_starts)
             if taken is None:
                 continue
-            (item, observed), received_s = taken
+            (item, observed, kind), received_s = taken
             start = self._fit_since
             assert start is not None
             try:
@@ -238,5 +272,6 @@ class LivePipeline(Generic[Item, Observed]):
             except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set
                 self._on_error(err)
             finally:
-                self._fit_s.append(time.monotonic() - start)
+                self._fit_s.setdefault(kind, deque(maxlen=_RECENT)).append(
+                    time.monotonic() - start)
                 self._fit_since = None

@@ -95,6 +95,77 @@ def test_the_next_set_is_observed_just_before_the_fit_in_progress_ends() -> None
     assert np.median(lags[3:]) <= 2, lags      # the first fits have no durations measured yet
 
 
+def test_each_kind_of_observation_is_scheduled_by_its_own_durations() -> None:
+    """Long and short observations alternate (as with fingertip detection in every second
+    set): a short one starts late enough that its set does not wait for the fit in progress
+    for the long one's duration."""
+    durations = {'long': 0.04, 'short': 0.004}
+    ended: dict[int, tuple[str, float]] = {}
+    waits: dict[str, list[float]] = {'long': [], 'short': []}
+    count = [0]
+
+    def kind() -> str:
+        return 'long' if count[0] % 2 == 0 else 'short'
+
+    def observe(k: int) -> int:
+        name = kind()
+        count[0] += 1
+        time.sleep(durations[name])
+        ended[k] = (name, time.monotonic())
+        return k
+
+    def track(k: int, obs: int, received_s: float) -> None:
+        name, end = ended[k]
+        waits[name].append(time.monotonic() - end)
+        time.sleep(0.08)
+
+    live = LivePipeline(observe, track, lambda err: None, kind)
+    try:
+        for k in range(120):
+            live.offer(k, time.monotonic())
+            time.sleep(0.01)
+    finally:
+        live.close()
+    assert len(waits['short']) > 4, waits
+    # Scheduled by the long ones' duration, a short observation would end ~36 ms early.
+    assert np.median(waits['short'][2:]) < 0.02, waits
+
+
+def test_the_first_tracking_fits_after_a_search_are_not_scheduled_by_the_search() -> None:
+    """Search fits take 200 ms, tracking fits 20 ms: once the kind of set changes, the
+    observer does not wait for a fit as long as a search's (the tracker would idle)."""
+    phase = ['search']
+    fits: list[tuple[str, float, float]] = []
+
+    def observe(k: int) -> str:
+        return phase[0]
+
+    def track(k: int, kind: str, received_s: float) -> None:
+        start = time.monotonic()
+        time.sleep(0.2 if kind == 'search' else 0.02)
+        fits.append((kind, start, time.monotonic()))
+
+    live = LivePipeline(observe, track, lambda err: None, lambda: phase[0])
+    try:
+        k = 0
+        while sum(kind == 'search' for kind, _, _ in fits) < 6:
+            live.offer(k, time.monotonic())
+            k += 1
+            time.sleep(0.01)
+        phase[0] = 'track'
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            live.offer(k, time.monotonic())
+            k += 1
+            time.sleep(0.01)
+    finally:
+        live.close()
+    tracking = [(start, stop) for kind, start, stop in fits if kind == 'track']
+    idle = [b[0] - a[1] for a, b in zip(tracking, tracking[1:])]
+    # Scheduled by the search's fits, each of the first tracking fits would idle ~180 ms.
+    assert len(tracking) > 10 and max(idle[:5]) < 0.1, idle
+
+
 def test_the_set_worker_serves_the_newest_set_drops_whole_ones_and_outlives_errors() -> None:
     started, release = threading.Event(), threading.Event()
     served, errors = [], []

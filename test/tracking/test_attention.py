@@ -39,6 +39,23 @@ def test_untracked_sets_observe_everything_tracked_ones_a_box_and_every_nth_dete
     assert whole.plan(_Session(posed, TrackStatus.TRACKING)).rois_px is None
 
 
+def test_the_kind_of_the_next_plan_is_known_before_planning(hand_model) -> None:
+    sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=2), hand_model)
+    posed = hand_model.pose(sequence.thetas[0], jacobian=False)
+    attention = Attention(AttentionConfig(detect_every=2), sequence.rig.cameras)
+    statuses = [None, TrackStatus.TRACKING, TrackStatus.TRACKING, TrackStatus.TRACKING,
+                TrackStatus.LOST, TrackStatus.TRACKING, TrackStatus.TRACKING]
+    told, planned = [], []
+    for status in statuses:
+        session = _Session(None if status is None else posed, status)
+        told.append(attention.next_kind(session))
+        assert attention.next_kind(session) == told[-1]      # asking plans nothing
+        plan = attention.plan(session)
+        planned.append((plan.rois_px is not None, plan.detect))
+    assert told == planned == [(False, True), (True, False), (True, True), (True, False),
+                               (False, True), (True, False), (True, True)]
+
+
 def test_offline_pipeline_observes_what_the_plan_of_a_tracked_hand_says(hand_model) -> None:
     sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=3), hand_model)
     pipe = OfflinePipeline(hand_model, sequence.rig, PipelineConfig())

@@ -198,9 +198,10 @@ def test_a_passed_deadline_stops_after_the_first_full_round(hand_model, grasp) -
     capped = tracker.fit(observations, separate=False, deadline_s=time.monotonic())
     later = tracker.fit(observations, separate=False, deadline_s=time.monotonic() + 60.0)
     pipeline.close()
-    first_full = (schedule.coarse_rounds + 1) * schedule.iterations
-    assert capped.iterations <= first_full < full.iterations
-    assert later.iterations == full.iterations
+    rounds = len(full.lm_statuses)          # one LM call per round (no separation)
+    assert len(capped.lm_statuses) == schedule.coarse_rounds + 1 < rounds
+    assert len(later.lm_statuses) == rounds
+    assert capped.iterations < full.iterations == later.iterations
     np.testing.assert_allclose(later.theta, full.theta)
 
 
