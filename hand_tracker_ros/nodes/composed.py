@@ -46,7 +46,7 @@ class InProcessObserver:
 
     def next_kind(self) -> tuple[bool, bool]:
         """The kind of the next set's plan (tracked, detects): the live loop predicts its
-        observation's and its fit's durations by it."""
+        observation's duration by it."""
         return self._attention.next_kind(self._tracker.session)
 
     def __call__(self, synced: SyncedSet) -> FrameObservations:
@@ -76,7 +76,7 @@ def compose() -> Sequence[Node]:
     features = FeaturesNode(in_process=True, cameras=cameras)
     salient = SalientPointsNode(in_process=True, cameras=cameras)
     observer = InProcessObserver(tracker, features, salient)
-    tracker.start(observer, kind=observer.next_kind)
+    tracker.start(observer, observe_kind=observer.next_kind)
     # run_node destroys the nodes in reverse: the tracker, whose pipeline threads call the
     # other two, stops first.
     return [features, salient, tracker]

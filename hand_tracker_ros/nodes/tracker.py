@@ -164,11 +164,8 @@ class TrackerNode(Node):
         self._init_state()
         self._create_outputs()
         if self.config.inputs == 'features':
-            assert self._attention is not None
-            attention = self._attention
             self.start(lambda synced: frame_observations(synced.stamp_ns, synced.items,
-                                                         self.working_cameras),
-                       kind=lambda: attention.next_kind(self._session))
+                                                         self.working_cameras))
 
     @property
     def session(self) -> TrackingSession:
@@ -176,14 +173,16 @@ class TrackerNode(Node):
         return self._session
 
     def start(self, observe: Callable[[SyncedSet], FrameObservations],
-              kind: Callable[[], Hashable] | None = None) -> None:
+              observe_kind: Callable[[], Hashable] | None = None) -> None:
         """Warm up, then subscribe to the inputs and track: ``observe`` turns a synchronized
         set (feature frames, or image messages with ``inputs:=images``) into observations;
-        ``kind`` tells the kind of the next observation (:class:`LivePipeline`)."""
+        ``observe_kind`` tells the kind of the next observation (:class:`LivePipeline`; a
+        fit's kind is the session's state as it starts)."""
         if self.config.warm_up:
             self.get_logger().info(f'JIT kernels loaded in {warm_up(self._model):.1f} s')
         self._pipeline = LivePipeline(lambda synced: self._prepared(observe(synced)),
-                                      self._track, self._on_error, kind)
+                                      self._track, self._on_error,
+                                      observe_kind=observe_kind, fit_kind=self._fit_kind)
         try:
             self._create_inputs()
         except BaseException:
@@ -196,6 +195,11 @@ class TrackerNode(Node):
             raise
         self.get_logger().info(f'ready: tracking with cameras {list(self.config.cameras)} '
                                f'from {self.config.inputs}')
+
+    def _fit_kind(self) -> tuple[TrackStatus | None, bool]:
+        """The kind of the fit about to start: the session's status and whether it searches
+        (a live search's fits take several times a tracking fit's)."""
+        return self._session.status, self._session.acquiring
 
     def _prepared(self, observations: FrameObservations) -> FrameObservations:
         """``observations`` with the tracker's per-frame work done (on the observer thread)."""

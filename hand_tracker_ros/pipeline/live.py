@@ -18,11 +18,13 @@ Starting the observation right after the tracker took a set (the earliest policy
 observed set waiting for most of the fit: on the live 4 x 320x240 graph the median latency
 was 127 ms, 117 ms just in time.
 
-Both durations are predicted per *kind* of set (``kind``, asked before the observer
-schedules a set; the graph's kind is the attention plan's: tracked or not, fingertips
-detected or not), by the median of that kind's recent ones: the fit in progress by its own
-kind's fits, the coming observation by its kind's observations. A kind without a measured
-duration yet starts the observation at once. Why per kind and the median:
+Both durations are predicted per *kind*, by the median of that kind's recent ones: the
+coming observation by its kind's observations (``observe_kind``; the graph's is the attention
+plan's: tracked or not, fingertips detected or not), the fit in progress by its kind's fits
+(``fit_kind``, asked as the fit starts; the graph's is the session's status, which the
+previous fit left: a live search's fits or a tracking fit). A kind without a measured duration
+yet starts the observation at once, and so does the end of the fit in progress. Why per kind
+and the median:
 
 - A live search's fits take about 250 ms, a tracking fit 40-50 ms: predicted by the fits of
   any kind, the first tracked sets after a search waited that long (the tracked hand got one
@@ -162,27 +164,35 @@ class LivePipeline(Generic[Item, Observed]):
         ``track(item, observed, received_s)``: fit and publish one set.
     on_error : callable
         Called with each exception either stage raised; the threads keep running.
-    kind : callable, optional
-        ``kind() -> key``: the kind of the next set (e.g. the attention plan's), asked when
-        the observer schedules it; its observation's and its fit's durations are predicted
-        from that kind's (default: one kind).
+    observe_kind : callable, optional
+        ``observe_kind() -> key``: the kind of the next observation (e.g. the attention
+        plan's), asked before the observer schedules it and again as it takes the set (the
+        kind its duration is filed under); default: one kind.
+    fit_kind : callable, optional
+        ``fit_kind() -> key``: the kind of the fit about to start (e.g. the session's status,
+        which the previous fit left), asked on the tracker thread as it takes a set; default:
+        one kind.
     """
 
     def __init__(self, observe: Callable[[Item], Observed],
                  track: Callable[[Item, Observed, float], None],
-                 on_error: Callable[[BaseException], None],
-                 kind: Callable[[], Hashable] | None = None) -> None:
+                 on_error: Callable[[BaseException], None], *,
+                 observe_kind: Callable[[], Hashable] | None = None,
+                 fit_kind: Callable[[], Hashable] | None = None) -> None:
         self._observe, self._track, self._on_error = observe, track, on_error
-        self._kind = kind if kind is not None else (lambda: None)
+        self._observe_kind = observe_kind if observe_kind is not None else _one_kind
+        self._next_fit_kind = fit_kind if fit_kind is not None else _one_kind
         self._inbox: LatestSet[Item] = LatestSet()
-        self._observed: LatestSet[tuple[Item, Observed, Hashable]] = LatestSet()
+        self._observed: LatestSet[tuple[Item, Observed]] = LatestSet()
         self._last_offer_s: float | None = None
         self.period_s: float | None = None   # moving average of the gaps between offers, s
-        # The last fits' and observations' durations (s) per kind of set.
+        # The last fits' and observations' durations (s) per kind.
         self._fit_s: dict[Hashable, deque[float]] = {}
         self._observe_s: dict[Hashable, deque[float]] = {}
         self._fit_since: float | None = None   # monotonic start of the fit in progress
-        self._fit_kind: Hashable = None        # the kind of its set
+        self._fit_kind: Hashable = None        # its kind
+        self._fit_ended = threading.Event()    # set while no fit runs
+        self._fit_ended.set()
         self._stop = threading.Event()
         self._threads = [threading.Thread(target=self._observer, name='observer', daemon=True),
                          threading.Thread(target=self._tracker, name='tracker', daemon=True)]
@@ -210,10 +220,10 @@ class LivePipeline(Generic[Item, Observed]):
             thread.join(timeout_s)
 
     def observe_at(self, kind: Hashable = None) -> float | None:
-        """When (monotonic s) the next observation, of a set of ``kind``, should start: the
-        fit in progress's expected end less the expected observation and a margin; None
-        (start at once) when no fit runs or either kind has no measured duration yet. Each
-        expected duration is the median of its kind's recent ones (module docstring)."""
+        """When (monotonic s) the next observation, of ``kind``, should start: the fit in
+        progress's expected end less the expected observation and a margin; None (start at
+        once) when no fit runs or either kind has no measured duration yet. Each expected
+        duration is the median of its kind's recent ones (module docstring)."""
         since, fits = self._fit_since, self._fit_s.get(self._fit_kind)
         observations = self._observe_s.get(kind)
         if since is None or not fits or not observations:
@@ -223,16 +233,20 @@ class LivePipeline(Generic[Item, Observed]):
                 - max(_MARGIN * observe_s, _MARGIN_MIN_S))
 
     def _wait_for_fit(self, kind: Hashable) -> None:
-        """Sleep until :meth:`observe_at` (re-read: a fit may end or start meanwhile)."""
+        """Sleep until :meth:`observe_at`, or until the fit in progress ends (re-read: a fit
+        may end or start meanwhile)."""
         while not self._stop.is_set():
             start_at = self.observe_at(kind)
             wait_s = 0.0 if start_at is None else start_at - time.monotonic()
             if wait_s <= 0.0:
                 return
-            self._stop.wait(min(wait_s, _POLL_S))
+            self._fit_ended.wait(min(wait_s, _POLL_S))
 
-    def _fit_starts(self, taken: tuple[tuple[Item, Observed, Hashable], float]) -> None:
-        self._fit_kind = taken[0][2]
+    def _fit_starts(self, _taken: tuple[tuple[Item, Observed], float]) -> None:
+        """On the tracker thread as it takes a set, before the observer may schedule the
+        next one."""
+        self._fit_ended.clear()
+        self._fit_kind = self._next_fit_kind()
         self._fit_since = time.monotonic()
 
     def _observer(self) -> None:
@@ -240,32 +254,33 @@ class LivePipeline(Generic[Item, Observed]):
             if not self._observed.wait_empty(_POLL_S):
                 continue
             try:
-                kind = self._kind()
-            except Exception as err:  # noqa: BLE001 - the thread must outlive it
-                self._on_error(err)
-                kind = None
-            self._wait_for_fit(kind)
-            taken = self._inbox.take(_POLL_S)
-            if taken is None:
-                continue
-            item, received_s = taken
-            start = time.monotonic()
-            try:
+                self._wait_for_fit(self._observe_kind())
+                taken = self._inbox.take(_POLL_S)
+                if taken is None:
+                    continue
+                item, received_s = taken
+                kind, start = self._observe_kind(), time.monotonic()
                 observed = self._observe(item)
             except Exception as err:  # noqa: BLE001 - the thread must outlive one bad set
                 self._on_error(err)
                 continue
             self._observe_s.setdefault(kind, deque(maxlen=_RECENT)).append(
                 time.monotonic() - start)
-            self._observed.put((item, observed, kind), received_s)
+            self._observed.put((item, observed), received_s)
 
     def _tracker(self) -> None:
         while not self._stop.is_set():
-            taken = self._observed.take(_POLL_S, on_take=self._fit_starts)
+            try:
+                taken = self._observed.take(_POLL_S, on_take=self._fit_starts)
+            except Exception as err:  # noqa: BLE001 - e.g. from fit_kind: the set is lost
+                self._fit_since = None
+                self._fit_ended.set()
+                self._on_error(err)
+                continue
             if taken is None:
                 continue
-            (item, observed, kind), received_s = taken
-            start = self._fit_since
+            (item, observed), received_s = taken
+            start, kind = self._fit_since, self._fit_kind
             assert start is not None
             try:
                 self._track(item, observed, received_s)
@@ -275,3 +290,8 @@ class LivePipeline(Generic[Item, Observed]):
                 self._fit_s.setdefault(kind, deque(maxlen=_RECENT)).append(
                     time.monotonic() - start)
                 self._fit_since = None
+                self._fit_ended.set()
+
+
+def _one_kind() -> None:
+    """The kind of every observation and fit when none is told."""

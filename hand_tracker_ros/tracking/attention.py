@@ -84,8 +84,8 @@ class Attention:
 
     def next_kind(self, session: TrackingSession) -> tuple[bool, bool]:
         """What :meth:`plan` would now plan, without planning: (the hand is tracked, the
-        set detects fingertips). The live loop predicts a set's observation and fit
-        durations by it (:mod:`hand_tracker_ros.pipeline.live`)."""
+        set detects fingertips). The live loop predicts the set's observation's duration by it
+        (:mod:`hand_tracker_ros.pipeline.live`)."""
         tracks = self._tracks(session)
         return tracks, not tracks or (self._tracked + 1) % self.config.detect_every == 0
 

@@ -119,7 +119,7 @@ def test_each_kind_of_observation_is_scheduled_by_its_own_durations() -> None:
         waits[name].append(time.monotonic() - end)
         time.sleep(0.08)
 
-    live = LivePipeline(observe, track, lambda err: None, kind)
+    live = LivePipeline(observe, track, lambda err: None, observe_kind=kind)
     try:
         for k in range(120):
             live.offer(k, time.monotonic())
@@ -132,38 +132,45 @@ def test_each_kind_of_observation_is_scheduled_by_its_own_durations() -> None:
 
 
 def test_the_first_tracking_fits_after_a_search_are_not_scheduled_by_the_search() -> None:
-    """Search fits take 200 ms, tracking fits 20 ms: once the kind of set changes, the
-    observer does not wait for a fit as long as a search's (the tracker would idle)."""
-    phase = ['search']
+    """A fit's kind is the state the previous fit left: tracking fits take 20 ms, the fits of
+    a search 200 ms, an observation 15 ms. Ten tracking fits, then a loss, six search fits,
+    and the hand found again: the observer schedules the tracking fits that follow by the
+    tracking fits' own durations, so their sets are observed before the fit in progress
+    ends. Scheduled by the search's fits, each would start only when the fit in progress
+    ended (the observer wakes then) and the tracker would idle for the observation."""
+    state = ['track']
     fits: list[tuple[str, float, float]] = []
 
-    def observe(k: int) -> str:
-        return phase[0]
-
-    def track(k: int, kind: str, received_s: float) -> None:
-        start = time.monotonic()
+    def track(k: int, observed: int, received_s: float) -> None:
+        kind, start = state[0], time.monotonic()
         time.sleep(0.2 if kind == 'search' else 0.02)
         fits.append((kind, start, time.monotonic()))
+        searched = sum(f[0] == 'search' for f in fits)
+        if len(fits) == 10:
+            state[0] = 'search'          # this fit lost the hand
+        elif kind == 'search' and searched == 6:
+            state[0] = 'track'           # this one found it
 
-    live = LivePipeline(observe, track, lambda err: None, lambda: phase[0])
+    def observe(k: int) -> int:
+        time.sleep(0.015)
+        return k
+
+    live = LivePipeline(observe, track, lambda err: None, fit_kind=lambda: state[0])
     try:
-        k = 0
-        while sum(kind == 'search' for kind, _, _ in fits) < 6:
+        k, end = 0, None
+        while end is None or time.monotonic() < end:
             live.offer(k, time.monotonic())
             k += 1
             time.sleep(0.01)
-        phase[0] = 'track'
-        end = time.monotonic() + 1.0
-        while time.monotonic() < end:
-            live.offer(k, time.monotonic())
-            k += 1
-            time.sleep(0.01)
+            if end is None and sum(f[0] == 'search' for f in fits) == 6:
+                end = time.monotonic() + 1.0
     finally:
         live.close()
-    tracking = [(start, stop) for kind, start, stop in fits if kind == 'track']
-    idle = [b[0] - a[1] for a, b in zip(tracking, tracking[1:])]
-    # Scheduled by the search's fits, each of the first tracking fits would idle ~180 ms.
-    assert len(tracking) > 10 and max(idle[:5]) < 0.1, idle
+    last_search = max(i for i, f in enumerate(fits) if f[0] == 'search')
+    after = fits[last_search:last_search + 7]
+    idle = [b[1] - a[2] for a, b in zip(after, after[1:])]
+    assert len(after) == 7 and all(f[0] == 'track' for f in after[1:]), fits
+    assert np.median(idle) < 0.008, idle
 
 
 def test_the_set_worker_serves_the_newest_set_drops_whole_ones_and_outlives_errors() -> None:
