@@ -18,13 +18,13 @@ Starting the observation right after the tracker took a set (the earliest policy
 observed set waiting for most of the fit: on the live 4 x 320x240 graph the median latency
 was 127 ms, 117 ms just in time.
 
-Both durations are predicted per *kind*, by the median of that kind's recent ones: the
-coming observation by its kind's observations (``observe_kind``; the graph's is the attention
-plan's: tracked or not, fingertips detected or not), the fit in progress by its kind's fits
-(``fit_kind``, asked as the fit starts; the graph's is the session's status, which the
-previous fit left: a live search's fits or a tracking fit). A kind without a measured duration
-yet starts the observation at once, and so does the end of the fit in progress. Why per kind
-and the median:
+Both durations are predicted per *kind*, from that kind's recent ones: the coming
+observation by the median of its kind's observations (``observe_kind``; the graph's is the
+attention plan's: tracked or not, fingertips detected or not), the fit in progress by the
+lower quartile of its kind's fits (``fit_kind``, asked as the fit starts; the graph's is the
+session's status, which the previous fit left: a live search's fits or a tracking fit). A
+kind without a measured duration yet starts the observation at once, and so does the end of
+the fit in progress. Why per kind, and these statistics:
 
 - A live search's fits take about 250 ms, a tracking fit 40-50 ms: predicted by the fits of
   any kind, the first tracked sets after a search waited that long (the tracked hand got one
@@ -35,10 +35,10 @@ and the median:
   (a fit over its budget skips its last one) and observations by what they detect, so it
   erred early by most of that spread. In one live run (random, 4 x 320x240, composed) an
   observed set then waited a median 13-18 ms for the fit in progress, of about 100 ms of
-  latency. Replaying that run's measured durations, the medians leave the set about 7 ms of
-  wait and idle the tracker about 1 ms a set on average. In eight live pairs with the old
-  rule (README, "Session of 2026-11-26 (sixth)") the median latency fell in seven, by a
-  median of 9.5 ms, at about the same estimates per second.
+  latency, and the tracker idled 0.2 ms a set on average. With the median fit and
+  observation the set waited 5.5 ms and the tracker idled 2 ms a set (a fit shorter than
+  predicted waits for the rest of the observation), about 4 % of the throughput; with the
+  lower quartile of the fits, 8 ms and 0.8-1.4 ms (README, "Session of 2026-11-26 (sixth)").
 
 Why plain threads and not a MultiThreadedExecutor: the one-slot mailboxes state the "newest
 set wins" policy directly, and the executor thread stays free for callbacks and timers
@@ -221,15 +221,17 @@ class LivePipeline(Generic[Item, Observed]):
 
     def observe_at(self, kind: Hashable = None) -> float | None:
         """When (monotonic s) the next observation, of ``kind``, should start: the fit in
-        progress's expected end less the expected observation and a margin; None (start at
-        once) when no fit runs or either kind has no measured duration yet. Each expected
-        duration is the median of its kind's recent ones (module docstring)."""
+        progress's expected end (the lower quartile of its kind's recent fits) less the
+        expected observation (the median of ``kind``'s recent ones) and a margin; None (start
+        at once) when no fit runs or either kind has no measured duration yet (module
+        docstring)."""
         since, fits = self._fit_since, self._fit_s.get(self._fit_kind)
         observations = self._observe_s.get(kind)
         if since is None or not fits or not observations:
             return None
         observe_s = statistics.median(observations)
-        return (since + statistics.median(fits) - observe_s
+        fit_s = sorted(fits)[len(fits) // 4]
+        return (since + fit_s - observe_s
                 - max(_MARGIN * observe_s, _MARGIN_MIN_S))
 
     def _wait_for_fit(self, kind: Hashable) -> None:
