@@ -15,6 +15,7 @@ Nested dataclass fields become dotted names (``lm.max_iterations``), as in ROS 2
 from __future__ import annotations
 
 import dataclasses
+import re
 import types
 import typing
 from collections.abc import Mapping, Sequence
@@ -27,6 +28,8 @@ from hand_tracker_ros.errors import ConfigError
 T = TypeVar('T')
 
 _SCALARS = (bool, int, float, str)
+# A number in YAML 1.2's core schema without a dot, e.g. ``1e-3``, is a string in YAML 1.1.
+_YAML12_FLOAT = re.compile(r'[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?')
 
 
 def param(default: Any, doc: str, *, unit: str = '', low: float | None = None,
@@ -84,6 +87,8 @@ def _coerce(name: str, value: Any, hint: Any) -> Any:
             raise ConfigError(msg)
         return value
     if hint is float:
+        if isinstance(value, str) and _YAML12_FLOAT.fullmatch(value):
+            value = float(value)      # e.g. 1e-3: PyYAML (YAML 1.1) reads it as a string
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             msg = f'`{name}` must be a number, got {value!r}'
             raise ConfigError(msg)

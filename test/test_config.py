@@ -61,6 +61,16 @@ def test_command_line_overrides_are_dotted_keys_with_yaml_values() -> None:
         overrides(['a=[1'])
 
 
+def test_a_number_in_exponent_form_without_a_dot_is_a_number() -> None:
+    # YAML 1.1 (PyYAML) reads 1e-3 as a string; YAML 1.2 and every user read a number.
+    assert from_mapping(Outer, overrides(['weight=1e-3'])).weight == 0.001
+    assert from_mapping(Outer, {'weight': '+2E+2'}).weight == 200.0
+    with pytest.raises(ConfigError, match='`weight` must be a number'):
+        from_mapping(Outer, {'weight': 'nan'})
+    with pytest.raises(ConfigError, match='`lm.max_iterations` must be an integer'):
+        from_mapping(Outer, {'lm.max_iterations': '1e1'})
+
+
 def test_describe_carries_docs_and_ranges() -> None:
     meta = describe(Outer)
     assert meta['lm.max_iterations']['low'] == 1
