@@ -79,18 +79,16 @@ class LatestSet(Generic[Item]):
             self._item = (item, received_s)
             self._cond.notify_all()
 
-    def take(self, timeout_s: float,
-             on_take: Callable[[tuple[Item, float]], None] | None = None
+    def take(self, timeout_s: float, on_take: Callable[[], None] | None = None
              ) -> tuple[Item, float] | None:
         """The newest item with its receipt time, or None after ``timeout_s``.
-        ``on_take(taken)`` runs when an item is taken, before a waiter on the empty slot
-        wakes."""
+        ``on_take`` runs when an item is taken, before a waiter on the empty slot wakes."""
         with self._cond:
             if self._item is None:
                 self._cond.wait(timeout_s)
             item, self._item = self._item, None
             if item is not None and on_take is not None:
-                on_take(item)
+                on_take()
             self._cond.notify_all()
             return item
 
@@ -244,7 +242,7 @@ class LivePipeline(Generic[Item, Observed]):
                 return
             self._fit_ended.wait(min(wait_s, _POLL_S))
 
-    def _fit_starts(self, _taken: tuple[tuple[Item, Observed], float]) -> None:
+    def _fit_starts(self) -> None:
         """On the tracker thread as it takes a set, before the observer may schedule the
         next one."""
         self._fit_ended.clear()

@@ -74,22 +74,19 @@ class Attention:
 
     def plan(self, session: TrackingSession) -> ObservationPlan:
         """The plan of the next set, from the session's last status and estimate."""
-        if not self._tracks(session):
+        tracks, detect = self.next_kind(session)
+        if not tracks:
             self._tracked = 0
             return ObservationPlan.everything()
         self._tracked += 1
         posed = session.tracker.last_posed
         rois = hand_rois(posed, self.cameras, self.config.roi) if self.config.use_roi else None
-        return ObservationPlan(rois, self._tracked % self.config.detect_every == 0)
+        return ObservationPlan(rois, detect)
 
     def next_kind(self, session: TrackingSession) -> tuple[bool, bool]:
         """What :meth:`plan` would now plan, without planning: (the hand is tracked, the
         set detects fingertips). The live loop predicts the set's observation's duration by it
         (:mod:`hand_tracker_ros.pipeline.live`)."""
-        tracks = self._tracks(session)
+        tracks = (session.status == TrackStatus.TRACKING
+                  and session.tracker.last_posed is not None)
         return tracks, not tracks or (self._tracked + 1) % self.config.detect_every == 0
-
-    @staticmethod
-    def _tracks(session: TrackingSession) -> bool:
-        return (session.status == TrackStatus.TRACKING
-                and session.tracker.last_posed is not None)
