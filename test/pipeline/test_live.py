@@ -95,6 +95,44 @@ def test_the_next_set_is_observed_just_before_the_fit_in_progress_ends() -> None
     assert np.median(lags[3:]) <= 2, lags      # the first fits have no durations measured yet
 
 
+def test_a_set_due_within_a_fraction_of_the_period_is_waited_for() -> None:
+    """Sets every 100 ms, fits of 180 ms: the newest set at each scheduled start is 10, 30,
+    50, 70 or 90 ms old in turn. The one 90 ms old is not observed: the next set, due 10 ms
+    later, is waited for."""
+    offered: dict[int, float] = {}
+    ages: list[float] = []
+
+    def observe(k: int) -> int:
+        ages.append(time.monotonic() - offered[k])
+        time.sleep(0.01)
+        return k
+
+    live = LivePipeline(observe, lambda *_: time.sleep(0.18), lambda err: None)
+    try:
+        for k in range(40):
+            offered[k] = time.monotonic()
+            live.offer(k, offered[k])
+            time.sleep(0.1)
+    finally:
+        live.close()
+    assert len(ages) > 15 and live.skipped > 5
+    assert max(ages[3:]) < 0.08, ages        # the first fits have no durations measured yet
+
+
+def test_a_tracker_faster_than_the_sets_waits_for_none_and_skips_none() -> None:
+    tracked: list[int] = []
+    live = LivePipeline(lambda k: k, lambda k, *_: (time.sleep(0.02), tracked.append(k)),
+                        lambda err: None)
+    try:
+        for k in range(25):
+            live.offer(k, time.monotonic())
+            time.sleep(0.05)
+        time.sleep(0.1)
+    finally:
+        live.close()
+    assert tracked == list(range(25)) and live.skipped == 0
+
+
 def test_each_kind_of_observation_is_scheduled_by_its_own_durations() -> None:
     """Long and short observations alternate (as with fingertip detection in every second
     set): a short one starts late enough that its set does not wait for the fit in progress
