@@ -38,7 +38,7 @@ from hand_tracker_ros.tracking.session import SessionConfig, TrackingSession
 from hand_tracker_ros.tracking.tracker import HandTracker, TrackerConfig
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector
-from hand_tracker_ros.vision.edges import edge_map_from
+from hand_tracker_ros.vision.edges import EdgeMap
 from hand_tracker_ros.vision.features import CameraFeatures, FeaturesConfig, MultiCameraFeatures
 from hand_tracker_ros.vision.image import Box
 from hand_tracker_ros.vision.resolution import to_working, working_camera
@@ -107,7 +107,7 @@ class OfflinePipeline:
         edges, orientation = add_edge_noise(features.edges.edges,
                                             features.edges.orientation_rad, rng,
                                             self.config.edge_noise)
-        edge_map = edge_map_from(edges, orientation, offset_uv_px=features.edges.offset_uv_px)
+        edge_map = EdgeMap(edges, orientation, features.edges.offset_uv_px)
         return dataclasses.replace(features, edges=edge_map)
 
     def observe(self, frames: FrameSet, plan: ObservationPlan | None = None

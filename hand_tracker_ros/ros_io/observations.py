@@ -42,7 +42,7 @@ from hand_tracker_ros.errors import ImageFormatError, ShapeError
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.ros_io.images import detections_from_msg
 from hand_tracker_ros.vision.detections import SalientDetections
-from hand_tracker_ros.vision.edges import edge_map_from
+from hand_tracker_ros.vision.edges import EdgeMap
 from hand_tracker_ros.vision.features import CameraFeatures
 from hand_tracker_ros.vision.flow import DenseFlow
 
@@ -217,9 +217,9 @@ class FrameAssembler:
 
 
 def camera_observation(frame: CameraFrame, camera: PinholeCamera) -> CameraObservation:
-    """The tracker's view of one camera frame (edge lookup tables built here)."""
+    """The tracker's view of one camera frame."""
     size = (camera.width, camera.height)
-    edges = edge_map_from(frame.edges, frame.orientation_rad)
+    edges = EdgeMap(frame.edges, frame.orientation_rad)
     flow = None if frame.flow_px is None else DenseFlow(frame.flow_px)
     features = CameraFeatures(camera_name=camera.name, stamp_ns=frame.stamp_ns, edges=edges,
                               mask=frame.mask, flow=flow, gray=None,

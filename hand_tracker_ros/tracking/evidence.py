@@ -45,7 +45,7 @@ from hand_tracker_ros.config import param
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.geometry.camera_model import Camera
-from hand_tracker_ros.vision.edges import nearest_edges
+from hand_tracker_ros.vision.edges import edges_within
 from hand_tracker_ros.vision.features import CameraFeatures
 from hand_tracker_ros.vision.visualize import paste_roi
 
@@ -107,8 +107,8 @@ def measure(views: Sequence[ModelView], observations: FrameObservations,
         if model_px:
             coverage.append(np.count_nonzero(model & data) / model_px)
         if view.contours.uv_px.shape[0]:
-            _, distance, _ = nearest_edges(obs.features.edges, view.contours.uv_px)
-            edges.append(float(np.mean(distance <= config.edge_px)))
+            edges.append(float(np.mean(edges_within(obs.features.edges,
+                                                    view.contours.uv_px, config.edge_px))))
         confident = obs.tips.uv_px[obs.tips.score >= config.tip_min_score]
         tip_d.append(_tip_distances_px(view, fingertips_m, confident))
     tips = np.concatenate(tip_d) if tip_d else np.zeros(0)

@@ -34,13 +34,9 @@ _LM = LMConfig(max_iterations=5, tau=1e-9)
 
 def _edge_map(edges: np.ndarray, orientation: float, offset: tuple[int, int] = (0, 0)
               ) -> EdgeMap:
-    """An EdgeMap with one gradient direction everywhere (the search reads only these two)."""
-    flat = np.flatnonzero(edges)
-    uv = np.column_stack([flat % edges.shape[1] + offset[0],
-                          flat // edges.shape[1] + offset[1]]).astype(np.int32)
+    """An EdgeMap with one gradient direction everywhere."""
     return EdgeMap(edges=edges, orientation_rad=np.full(edges.shape, orientation, np.float32),
-                   distance_px=np.zeros(edges.shape, np.float32),
-                   labels=np.zeros(edges.shape, np.int32), edge_uv_px=uv, offset_uv_px=offset)
+                   offset_uv_px=offset)
 
 
 def test_search_finds_first_compatible_edge_and_the_nearer_side() -> None:

@@ -245,7 +245,7 @@ def test_nan_flow_becomes_invalid_flow_in_the_observation(hand_model) -> None:
     carried, valid = obs.features.flow.flow_at(np.array([[2.0, 3.0], [12.0, 3.0]]))
     np.testing.assert_array_equal(valid, [True, False])
     np.testing.assert_allclose(carried[0], [3.0, 4.0])
-    assert obs.features.edges.edge_uv_px.tolist() == [[4, 6]]
+    np.testing.assert_array_equal(obs.features.edges.edges, edges)
     assert obs.tips.uv_px.shape == (0, 2) and obs.features.roi_px == (0, 0, 16, 12)
 
 
