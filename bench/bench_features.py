@@ -82,7 +82,7 @@ def bench_size(width: int, height: int) -> None:
     grays = [to_gray(f) for f in frames]
     print(f'{width}x{height}, one camera, cv2 threads 1:')
     report('gray conversion', timed(lambda: to_gray(frames[1])))
-    report('edges (blur+Sobel+Canny+orientation+DT labels)',
+    report('edges (blur+Sobel+Canny+orientation)',
            timed(lambda: compute_edges(grays[1], EdgeConfig())))
     skin = ForegroundMasker(MaskConfig(method='skin'))
     report('mask skin (CrCb LUT + open/close)', timed(lambda: skin.compute(frames[1])))

@@ -9,7 +9,8 @@ observes one set (the attention policy's plan, as the tracker node) and fits it 
 session's live deadline (one set period), and the simulated clock advances by the step's wall
 time plus ``--observe-share`` of the observation's (the node observes the next set while it
 fits this one; they share one interpreter). The next step takes the newest set by then, as
-:class:`hand_tracker_ros.pipeline.live.LivePipeline` does. Per seed it prints the share of the
+:class:`hand_tracker_ros.pipeline.live.LivePipeline` does (its wait for a set about to arrive
+is left out). Per seed it prints the share of the
 sets estimated and tracked, the mean and median 3D joint error of the estimates, and the
 steps that searched or recovered. Run to run it varies with the machine's speed: the budgets
 are wall time, and one run of a seed varies by about 10 points of the tracked share (single

@@ -4,8 +4,9 @@ A node's ROS callbacks only :meth:`LivePipeline.offer` complete sets (cheap). Tw
 the work:
 
 - the *observer* turns the newest offered set into the tracker's observations (features,
-  detections, edge lookup tables); a set offered while an older one is still untaken
-  replaces it and counts as ``skipped``, so the graph always works on the newest set;
+  detections, the silhouette term's lookup tables); a set offered while an older one is
+  still untaken replaces it and counts as ``skipped``, so the graph always works on the
+  newest set;
 - the *tracker* fits each observed set in turn and publishes (``track``).
 
 Every observed set is tracked (optical flow and the warm start are relative to the previous
@@ -40,13 +41,18 @@ the fit in progress. Why per kind, and these statistics:
   predicted waits for the rest of the observation), about 4 % of the throughput; with the
   lower quartile of the fits, 8 ms and 0.8-1.4 ms (README, "Session of 2026-11-26 (sixth)").
 
-When the observer is due to start, the newest set is on average half a period old; when
-the next set is due within ``_FRESH_WAIT`` of the period, the observer waits for it instead
-(up to ``_FRESH_JITTER`` of the period longer, for its jitter). That wait mostly spends the
-margin the schedule leaves before the fit's end, and takes a set up to a period younger. In
-composed runs at 1.0x (4 x 320x240, eleven bags in pairs with the loop without it) the
-median latency fell in 8 of 11, from a median of 92 to 84 ms, at the same estimates per
-second within the runs' noise (README, "Session of 2026-11-26 (seventh)").
+When the observer is due to start, the newest set is on average half a period old. When the
+next set is due before the latest start that still ends the observation by the fit in
+progress's *median* duration (:func:`due_set_wait_s`), the observer waits for it instead, so
+the wait spends the margin the schedule leaves (the margin and the spread between the lower
+quartile and the median of the fits) and never idles the tracker past a median fit; a set
+waiting behind a backlog is never passed over, since the fit it waits for has then run past
+that end. An earlier rule (wait when the next set was due within 0.3 of the period, 0.1 more
+for its jitter) idled the tracker 20 ms a fit when fits took 1.8 periods, and passed over a
+set after one long fit at slow playback (an independent review). Composed at 1.0x, 4 x
+320x240, in pairs with the loop without it, that rule lowered the median latency in 8 of 11
+runs (a median of 84 against 92 ms); the bounded rule's figures are in the README
+("Session of 2026-11-26 (seventh)").
 
 Why plain threads and not a MultiThreadedExecutor: the one-slot mailboxes state the "newest
 set wins" policy directly, and the executor thread stays free for callbacks and timers
@@ -70,8 +76,6 @@ _PERIOD_EMA = 0.1     # weight of the newest gap in the moving average of the se
 _RECENT = 9           # fits and observations whose durations predict the next ones
 _MARGIN = 0.2         # the observation starts early by this share of its expected duration
 _MARGIN_MIN_S = 0.002
-_FRESH_WAIT = 0.3     # the observer waits for a set due within this share of the period
-_FRESH_JITTER = 0.1   # ... and for this share more, as sets arrive a little early or late
 
 
 class LatestSet(Generic[Item]):
@@ -259,16 +263,17 @@ class LivePipeline(Generic[Item, Observed]):
                 return
             self._fit_ended.wait(min(wait_s, _POLL_S))
 
-    def _wait_for_due_set(self) -> None:
-        """Wait for the next set when it is due within ``_FRESH_WAIT`` of the period (and a
-        little longer, for its jitter), rather than observe the newest, then nearly a period
-        old (module docstring)."""
-        last_s, period_s = self._last_offer_s, self.period_s
-        if last_s is None or period_s is None:
+    def _wait_for_due_set(self, kind: Hashable) -> None:
+        """Wait (at most ``_POLL_S``) for the next set if it is due in time to be observed,
+        ``kind``, by the fit in progress's median end (:func:`due_set_wait_s`)."""
+        since, fits = self._fit_since, self._fit_s.get(self._fit_kind)
+        observations, last_s = self._observe_s.get(kind), self._last_offer_s
+        if since is None or not fits or not observations or last_s is None:
             return
-        due_in_s = last_s + period_s - time.monotonic()
-        if due_in_s <= _FRESH_WAIT * period_s:
-            self._inbox.wait_newer(last_s, max(due_in_s, 0.0) + _FRESH_JITTER * period_s)
+        latest_s = since + statistics.median(fits) - statistics.median(observations)
+        wait_s = due_set_wait_s(time.monotonic(), last_s, self.period_s, latest_s)
+        if wait_s > 0.0:
+            self._inbox.wait_newer(last_s, min(wait_s, _POLL_S))
 
     def _fit_starts(self) -> None:
         """On the tracker thread as it takes a set, before the observer may schedule the
@@ -282,8 +287,9 @@ class LivePipeline(Generic[Item, Observed]):
             if not self._observed.wait_empty(_POLL_S):
                 continue
             try:
-                self._wait_for_fit(self._observe_kind())
-                self._wait_for_due_set()
+                kind = self._observe_kind()
+                self._wait_for_fit(kind)
+                self._wait_for_due_set(kind)
                 taken = self._inbox.take(_POLL_S)
                 if taken is None:
                     continue
@@ -320,6 +326,17 @@ class LivePipeline(Generic[Item, Observed]):
                     time.monotonic() - start)
                 self._fit_since = None
                 self._fit_ended.set()
+
+
+def due_set_wait_s(now_s: float, last_offer_s: float, period_s: float | None,
+                   latest_start_s: float) -> float:
+    """How long (s) the observer waits for the next set rather than observe the newest: until
+    ``latest_start_s`` (monotonic s, the latest start that ends the observation by the fit in
+    progress's expected end) when the next set, due a period after the last one offered at
+    ``last_offer_s``, is due by then; 0 when it is not, or the period is unknown."""
+    if period_s is None or last_offer_s + period_s > latest_start_s:
+        return 0.0
+    return max(latest_start_s - now_s, 0.0)
 
 
 def _one_kind() -> None:

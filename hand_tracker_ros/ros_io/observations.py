@@ -22,8 +22,8 @@ Messages are grouped by exact stamp (they all copy the image header). ``edges``,
 Released frames are counted ``frames``, those released by the wait ``timed_out``. At most
 ``max_pending`` incomplete frames are kept per camera; the oldest is dropped beyond that
 (counted ``dropped``). A part for a stamp already released is counted ``late`` and
-ignored. Only :func:`camera_observation` does numeric work (the edge lookup tables); it runs
-on the tracker's processing thread, not in the ROS callbacks.
+ignored. :func:`camera_observation` (the tracker's view of a frame) runs on the tracker's
+processing thread, not in the ROS callbacks.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Image edges with orientation, and the nearest edge pixel of any query point.
+"""Image edges with orientation, and whether query points lie near an edge.
 
 Pixel convention: ``uv_px = (u, v) = (column, row)``, pixel centres at integer coordinates,
 origin at the top-left pixel centre of the full image. The maps may cover only a region of

@@ -6,8 +6,14 @@ import threading
 import time
 
 import numpy as np
+import pytest
 
-from hand_tracker_ros.pipeline.live import LatestSet, LivePipeline, NewestSetWorker
+from hand_tracker_ros.pipeline.live import (
+    LatestSet,
+    LivePipeline,
+    NewestSetWorker,
+    due_set_wait_s,
+)
 
 
 def test_newest_set_wins_and_skipped_sets_are_counted() -> None:
@@ -95,42 +101,43 @@ def test_the_next_set_is_observed_just_before_the_fit_in_progress_ends() -> None
     assert np.median(lags[3:]) <= 2, lags      # the first fits have no durations measured yet
 
 
-def test_a_set_due_within_a_fraction_of_the_period_is_waited_for() -> None:
-    """Sets every 100 ms, fits of 180 ms: the newest set at each scheduled start is 10, 30,
-    50, 70 or 90 ms old in turn. The one 90 ms old is not observed: the next set, due 10 ms
-    later, is waited for."""
-    offered: dict[int, float] = {}
-    ages: list[float] = []
-
-    def observe(k: int) -> int:
-        ages.append(time.monotonic() - offered[k])
-        time.sleep(0.01)
-        return k
-
-    live = LivePipeline(observe, lambda *_: time.sleep(0.18), lambda err: None)
-    try:
-        for k in range(40):
-            offered[k] = time.monotonic()
-            live.offer(k, offered[k])
-            time.sleep(0.1)
-    finally:
-        live.close()
-    assert len(ages) > 15 and live.skipped > 5
-    assert max(ages[3:]) < 0.08, ages        # the first fits have no durations measured yet
+def test_the_next_set_is_waited_for_only_when_it_can_be_observed_by_the_fits_end() -> None:
+    """Sets every 33 ms, the last offered at t = 1.000 s; the observation must start by
+    ``latest`` to end by the fit in progress's expected end."""
+    # Due at 1.033, by the latest start 1.040: wait from 1.025 until 1.040.
+    assert due_set_wait_s(1.025, 1.0, 0.033, 1.040) == pytest.approx(0.015)
+    # Due at 1.033 after the latest start 1.030: observe the newest now.
+    assert due_set_wait_s(1.025, 1.0, 0.033, 1.030) == 0.0
+    # A set late past its due time: wait what is left until the latest start, then go.
+    assert due_set_wait_s(1.038, 1.0, 0.033, 1.040) == pytest.approx(0.002)
+    assert due_set_wait_s(1.045, 1.0, 0.033, 1.040) == 0.0
+    assert due_set_wait_s(1.025, 1.0, None, 1.040) == 0.0     # no period measured yet
 
 
-def test_a_tracker_faster_than_the_sets_waits_for_none_and_skips_none() -> None:
+@pytest.mark.parametrize('long_fit_s', [0.28, 0.95])
+def test_a_backlog_after_one_long_fit_is_worked_off_without_passing_a_set(long_fit_s) -> None:
+    """Slow playback (a set every 100 ms, 10 ms fits) and one long fit: the sets that queued
+    behind it are all tracked; the next set is never waited for while a fit overruns."""
     tracked: list[int] = []
-    live = LivePipeline(lambda k: k, lambda k, *_: (time.sleep(0.02), tracked.append(k)),
-                        lambda err: None)
+
+    def track(k: int, obs: int, received_s: float) -> None:
+        time.sleep(long_fit_s if k == 6 else 0.01)
+        tracked.append(k)
+
+    live = LivePipeline(lambda k: (time.sleep(0.005), k)[1], track, lambda err: None)
     try:
-        for k in range(25):
+        for k in range(14):
             live.offer(k, time.monotonic())
-            time.sleep(0.05)
-        time.sleep(0.1)
+            time.sleep(0.1)
+        time.sleep(0.3)
     finally:
         live.close()
-    assert tracked == list(range(25)) and live.skipped == 0
+    # Of the sets offered during the long fit (7, 8, ...) the first is observed during it
+    # and the last is tracked after it; only those between are replaced. (Waiting for set
+    # 9 while 8 waited, as a rule unbounded by the fit's expected end did, lost set 8.)
+    during = min(int(long_fit_s / 0.1), 7)
+    assert live.skipped <= max(during - 2, 0), tracked
+    assert len(tracked) == 14 - live.skipped and tracked == sorted(tracked), tracked
 
 
 def test_each_kind_of_observation_is_scheduled_by_its_own_durations() -> None:

@@ -15,6 +15,7 @@ from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 from hand_tracker_ros.node_config import NEUTRAL_POSE
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.overlay import KEYPOINT_PARENTS, draw_overlay
+from hand_tracker_ros.vision.edges import edges_within
 
 pytestmark = pytest.mark.ros
 STAMP_NS = 1_700_000_123_456_789_012
@@ -245,7 +246,8 @@ def test_nan_flow_becomes_invalid_flow_in_the_observation(hand_model) -> None:
     carried, valid = obs.features.flow.flow_at(np.array([[2.0, 3.0], [12.0, 3.0]]))
     np.testing.assert_array_equal(valid, [True, False])
     np.testing.assert_allclose(carried[0], [3.0, 4.0])
-    np.testing.assert_array_equal(obs.features.edges.edges, edges)
+    near = edges_within(obs.features.edges, np.array([[4.0, 6.0], [6.0, 4.0]]), 0.0)
+    np.testing.assert_array_equal(near, [True, False])     # (u, v): column 4, row 6
     assert obs.tips.uv_px.shape == (0, 2) and obs.features.roi_px == (0, 0, 16, 12)
 
 
