@@ -12,7 +12,7 @@ the previous and current frames, so it is valid even when the box moves.
 
 :class:`MultiCameraFeatures` runs the C extractors in a thread pool. cv2 releases the GIL,
 so plain threads run cameras in parallel. cv2's own threading is turned down to 1 thread
-(process- wide: ``cv2.setNumThreads`` is global): Canny and Sobel are single-threaded
+(process-wide: ``cv2.setNumThreads`` is global): Canny and Sobel are single-threaded
 anyway, and on 2 cores one camera per worker measured 1.6-2x faster than cv2 splitting each
 call (bench/bench_features.py), because nested parallelism only adds synchronisation when
 every core is already busy with a camera.
