@@ -41,18 +41,19 @@ the fit in progress. Why per kind, and these statistics:
   predicted waits for the rest of the observation), about 4 % of the throughput; with the
   lower quartile of the fits, 8 ms and 0.8-1.4 ms (README, "Session of 2026-11-26 (sixth)").
 
-When the observer is due to start, the newest set is on average half a period old. When the
-next set is due before the latest start that still ends the observation by the fit in
-progress's *median* duration (:func:`due_set_wait_s`), the observer waits for it instead, so
-the wait spends the margin the schedule leaves (the margin and the spread between the lower
-quartile and the median of the fits) and never idles the tracker past a median fit; a set
-waiting behind a backlog is never passed over, since the fit it waits for has then run past
-that end. An earlier rule (wait when the next set was due within 0.3 of the period, 0.1 more
-for its jitter) idled the tracker 20 ms a fit when fits took 1.8 periods, and passed over a
-set after one long fit at slow playback (an independent review). Composed at 1.0x, 4 x
-320x240, in pairs with the loop without it, that rule lowered the median latency in 8 of 11
-runs (a median of 84 against 92 ms); the bounded rule's figures are in the README
-("Session of 2026-11-26 (seventh)").
+When the observer is due to start, the newest set is on average half a period old. While the
+fits take longer than a period (the median of the fit's kind; sets are skipped anyway), when
+the next set is due before the latest start that still ends a median observation by the fit
+in progress's *median* end (:func:`due_set_wait_s`), the observer waits for it instead. The
+wait spends the margin the schedule leaves (the margin and the spread between the lower
+quartile and the median of the fits), so the tracker idles past a median fit only when the
+observation runs over its median. While the fits keep up with the sets, the observer never
+waits: a set queued behind one long fit is then tracked, not replaced. An earlier rule (wait
+when the next set was due within 0.3 of the period, 0.1 more for its jitter) idled the
+tracker 20 ms a fit when fits took 1.8 periods, and passed over a set after one long fit at
+slow playback (an independent review). Composed at 1.0x, 4 x 320x240, in pairs with the loop
+without it, that rule lowered the median latency in 8 of 11 runs (a median of 84 against 92
+ms); the bounded rule's figures are in the README ("Session of 2026-11-26 (seventh)").
 
 Why plain threads and not a MultiThreadedExecutor: the one-slot mailboxes state the "newest
 set wins" policy directly, and the executor thread stays free for callbacks and timers
@@ -265,10 +266,12 @@ class LivePipeline(Generic[Item, Observed]):
 
     def _wait_for_due_set(self, kind: Hashable) -> None:
         """Wait (at most ``_POLL_S``) for the next set if it is due in time to be observed,
-        ``kind``, by the fit in progress's median end (:func:`due_set_wait_s`)."""
+        ``kind``, by the fit in progress's median end (:func:`due_set_wait_s`); only while
+        the fits take longer than a period (module docstring)."""
         since, fits = self._fit_since, self._fit_s.get(self._fit_kind)
         observations, last_s = self._observe_s.get(kind), self._last_offer_s
-        if since is None or not fits or not observations or last_s is None:
+        if (since is None or not fits or not observations or last_s is None
+                or self.period_s is None or statistics.median(fits) <= self.period_s):
             return
         latest_s = since + statistics.median(fits) - statistics.median(observations)
         wait_s = due_set_wait_s(time.monotonic(), last_s, self.period_s, latest_s)
@@ -330,10 +333,11 @@ class LivePipeline(Generic[Item, Observed]):
 
 def due_set_wait_s(now_s: float, last_offer_s: float, period_s: float | None,
                    latest_start_s: float) -> float:
-    """How long (s) the observer waits for the next set rather than observe the newest: until
-    ``latest_start_s`` (monotonic s, the latest start that ends the observation by the fit in
-    progress's expected end) when the next set, due a period after the last one offered at
-    ``last_offer_s``, is due by then; 0 when it is not, or the period is unknown."""
+    """The longest (s) the observer waits for the next set rather than observe the newest (the
+    wait ends when the set arrives): until ``latest_start_s`` (monotonic s, the latest start
+    that ends the observation by the fit in progress's median end) when the next set, due a
+    period after the last one offered at ``last_offer_s``, is due by then; 0 when it is not,
+    or the period is unknown."""
     if period_s is None or last_offer_s + period_s > latest_start_s:
         return 0.0
     return max(latest_start_s - now_s, 0.0)
