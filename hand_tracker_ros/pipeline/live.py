@@ -245,14 +245,24 @@ class LivePipeline(Generic[Item, Observed]):
         expected observation (the median of ``kind``'s recent ones) and a margin; None (start
         at once) when no fit runs or either kind has no measured duration yet (module
         docstring)."""
-        since, fits = self._fit_since, self._fit_s.get(self._fit_kind)
-        observations = self._observe_s.get(kind)
-        if since is None or not fits or not observations:
+        measured = self._measured(kind)
+        if measured is None:
             return None
+        since, fits, observations = measured
         observe_s = statistics.median(observations)
         fit_s = sorted(fits)[len(fits) // 4]
         return (since + fit_s - observe_s
                 - max(_MARGIN * observe_s, _MARGIN_MIN_S))
+
+    def _measured(self, kind: Hashable
+                  ) -> tuple[float, deque[float], deque[float]] | None:
+        """The fit in progress's start (monotonic s) with its kind's recent fits and
+        ``kind``'s recent observations (s); None when no fit runs or either has none."""
+        since, fits = self._fit_since, self._fit_s.get(self._fit_kind)
+        observations = self._observe_s.get(kind)
+        if since is None or not fits or not observations:
+            return None
+        return since, fits, observations
 
     def _wait_for_fit(self, kind: Hashable) -> None:
         """Sleep until :meth:`observe_at`, or until the fit in progress ends (re-read: a fit
@@ -268,13 +278,15 @@ class LivePipeline(Generic[Item, Observed]):
         """Wait (at most ``_POLL_S``) for the next set if it is due in time to be observed,
         ``kind``, by the fit in progress's median end (:func:`due_set_wait_s`); only while
         the fits take longer than a period (module docstring)."""
-        since, fits = self._fit_since, self._fit_s.get(self._fit_kind)
-        observations, last_s = self._observe_s.get(kind), self._last_offer_s
-        if (since is None or not fits or not observations or last_s is None
-                or self.period_s is None or statistics.median(fits) <= self.period_s):
+        measured, last_s, period_s = self._measured(kind), self._last_offer_s, self.period_s
+        if measured is None or last_s is None or period_s is None:
             return
-        latest_s = since + statistics.median(fits) - statistics.median(observations)
-        wait_s = due_set_wait_s(time.monotonic(), last_s, self.period_s, latest_s)
+        since, fits, observations = measured
+        fit_s = statistics.median(fits)
+        if fit_s <= period_s:
+            return
+        latest_s = since + fit_s - statistics.median(observations)
+        wait_s = due_set_wait_s(time.monotonic(), last_s, period_s, latest_s)
         if wait_s > 0.0:
             self._inbox.wait_newer(last_s, min(wait_s, _POLL_S))
 
