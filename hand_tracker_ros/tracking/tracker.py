@@ -271,12 +271,10 @@ class HandTracker:
         # after a single round (a short fit from a hypothesis, which moves the hand far, or a
         # one-round schedule, which would carry the same raster from set to set), after a
         # separation round, and for PSO.
-        views: tuple[ModelView, ...] | None = None
-        if last_views is not None and separated_iterations == 0:
+        if (last_views is not None and separated_iterations == 0
+                and contour_shift_px(last_views, posed) <= self.config.carry_views_px):
             views = moved_views(last_views, posed)
-            if not contour_shift_px(last_views, views) <= self.config.carry_views_px:
-                views = None
-        if views is None:
+        else:
             views = self.views(posed)
         timings['views'] = timings.get('views', 0.0) + time.perf_counter() - t0
         labels = tuple(getattr(c, 'labels', ()) for c in correspondences
