@@ -9,7 +9,9 @@ Per camera, from the frames that reach the synchronizer and the camera_info mess
 - frames without any camera_info for more than ``INFO_GRACE_S`` are reported (the rig's
   intrinsics are used);
 - a camera whose last frame is more than ``SILENT_S`` older than the newest frame of any
-  camera is *silent*: no set can be formed.
+  camera is *silent*: no set can be formed. A camera that has sent nothing is silent once
+  the first frame of any camera is that old (the cameras' first frames of a stream arrive
+  a few ms apart, and are no problem).
 
 Times are ``time.monotonic()`` seconds passed in by the caller, so the policy is testable
 without clocks.
@@ -84,13 +86,14 @@ class InputHealth:
         """Per camera with a problem: size mismatch, no camera_info, or silent."""
         problems = dict(self._mismatch)
         newest = max(self._last_frame_s.values(), default=None)
+        first = min(self._first_frame_s.values(), default=None)
         for cam in self._cameras:
             if cam not in self._info_s and \
                     now_s - self._first_frame_s.get(cam, now_s) > INFO_GRACE_S:
                 problems.setdefault(cam, f'no camera_info on {cam}/camera_info; using the '
                                          'rig intrinsics')
-            last = self._last_frame_s.get(cam)
-            if newest is not None and (last is None or newest - last > SILENT_S):
+            last = self._last_frame_s.get(cam, first)
+            if newest is not None and newest - last > SILENT_S:
                 problems.setdefault(cam, f'{cam}: no frames for more than {SILENT_S:.0f} s '
                                          'while other cameras send; no sets can be formed')
         return problems
