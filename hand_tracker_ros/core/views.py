@@ -79,7 +79,8 @@ def contour_shift_px(views: Sequence[ModelView], posed: PosedHand) -> float:
     """How far ``posed`` moves the contour points of ``views``, px: the median over a
     camera's contour vertices of ``|uv(posed) - contours.uv_px|``, the largest over the
     cameras (0 without contour points; NaN when a point went behind a camera). Only the
-    contour vertices are projected, so this costs a fraction of :func:`moved_views`."""
+    contour vertices are projected, so the full projection (:func:`moved_views`) runs only
+    for views that are carried."""
     shifts = []
     for view in views:
         ids = view.contours.vertex_ids

@@ -79,11 +79,11 @@ class LMConfig:
                                 'per separation round, each capped by this', low=1, high=1000)
     tau: float = param(1e-3, 'initial damping, relative to diag(J^T J)', low=1e-12, high=1e6)
     # Within a tracker's round (correspondences fixed) the first step takes nearly all of the
-    # decrease, and later ones gain hundredths of a per cent, so a round stops after an
-    # accepted step that gains less than 0.1 %. Against 1e-6, in bench/lockstep.py on
-    # held-out bags, the fits took 0.92 of the time with the same error. 1e-2 took 0.90 but
-    # refined a live search's rough find more slowly (README, "Session of 2026-11-26
-    # (eighth)").
+    # decrease, and later ones gain hundredths of a per cent, so a round (and a separation
+    # round) stops after an accepted step that gains less than 0.1 %. Against 1e-6, in
+    # bench/lockstep.py on held-out bags, the fits took 0.91-0.92 of the time with the same
+    # error, from the true pose and from the search. 1e-2 took 0.90 but refined a live
+    # search's rough find more slowly (README, "Session of 2026-11-26 (eighth)").
     ftol: float = param(1e-3, 'stop when an accepted step decreases the cost by less than '
                         'this fraction of it', low=0.0, high=1.0)
     xtol: float = param(1e-7, 'stop when the step norm is below this', low=0.0, high=1.0)

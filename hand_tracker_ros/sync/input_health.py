@@ -9,9 +9,10 @@ Per camera, from the frames that reach the synchronizer and the camera_info mess
 - frames without any camera_info for more than ``INFO_GRACE_S`` are reported (the rig's
   intrinsics are used);
 - a camera whose last frame is more than ``SILENT_S`` older than the newest frame of any
-  camera is *silent*: no set can be formed. A camera that has sent nothing is silent once
-  the first frame of any camera is that old (the cameras' first frames of a stream arrive
-  a few ms apart, and are no problem).
+  camera is *silent*: no set can be formed. A stream starts with the first frame of all, or
+  the first after no camera sent for ``PAUSE_S`` (a playback resumed after a pause); a camera
+  whose last frame came before it is silent once that start is ``SILENT_S`` old, since the
+  cameras' first frames of a stream arrive a few ms apart.
 
 Times are ``time.monotonic()`` seconds passed in by the caller, so the policy is testable
 without clocks.
@@ -28,6 +29,7 @@ from hand_tracker_ros.geometry.camera_model import Camera
 
 INFO_GRACE_S = 2.0
 SILENT_S = 1.0
+PAUSE_S = 2.0
 K_TOLERANCE = 1e-3
 
 
@@ -45,6 +47,8 @@ class InputHealth:
         self._frames: Counter[str] = Counter()
         self._last_frame_s: dict[str, float] = {}
         self._first_frame_s: dict[str, float] = {}
+        self._newest_s: float | None = None        # the newest frame of any camera
+        self._stream_s = 0.0                       # the first frame of the current stream
         self._info_s: dict[str, float] = {}
         self._mismatch: dict[str, str] = {}
 
@@ -55,6 +59,9 @@ class InputHealth:
     def frame(self, camera: str, now_s: float) -> None:
         """Count a frame of ``camera`` received at ``now_s``."""
         self._frames[camera] += 1
+        if self._newest_s is None or now_s - self._newest_s > PAUSE_S:
+            self._stream_s = now_s
+        self._newest_s = now_s if self._newest_s is None else max(self._newest_s, now_s)
         self._last_frame_s[camera] = now_s
         self._first_frame_s.setdefault(camera, now_s)
 
@@ -85,15 +92,13 @@ class InputHealth:
     def problems(self, now_s: float) -> dict[str, str]:
         """Per camera with a problem: size mismatch, no camera_info, or silent."""
         problems = dict(self._mismatch)
-        newest = max(self._last_frame_s.values(), default=None)
-        first = min(self._first_frame_s.values(), default=None)
         for cam in self._cameras:
             if cam not in self._info_s and \
                     now_s - self._first_frame_s.get(cam, now_s) > INFO_GRACE_S:
                 problems.setdefault(cam, f'no camera_info on {cam}/camera_info; using the '
                                          'rig intrinsics')
-            last = self._last_frame_s.get(cam, first)
-            if newest is not None and newest - last > SILENT_S:
+            last = max(self._last_frame_s.get(cam, self._stream_s), self._stream_s)
+            if self._newest_s is not None and self._newest_s - last > SILENT_S:
                 problems.setdefault(cam, f'{cam}: no frames for more than {SILENT_S:.0f} s '
                                          'while other cameras send; no sets can be formed')
         return problems
