@@ -54,8 +54,8 @@ def test_missing_camera_info_and_silent_cameras_are_problems() -> None:
 
 def test_a_stream_resumed_after_a_pause_is_not_silent_while_its_first_frames_arrive() -> None:
     health, rig = _health()
-    for cam in ('cam0', 'cam1'):
-        health.camera_info(cam, 64, 48, rig.cameras[0 if cam == 'cam0' else 1].K, 0.0)
+    for camera in rig.cameras:
+        health.camera_info(camera.name, 64, 48, camera.K, 0.0)
     for t in (0.0, 0.5, 1.0):
         health.frame('cam0', t)
         health.frame('cam1', t)
@@ -66,4 +66,3 @@ def test_a_stream_resumed_after_a_pause_is_not_silent_while_its_first_frames_arr
     assert set(health.problems(61.1)) == {'cam1'}   # cam0 sent for 1.1 s: cam1 is silent
     health.frame('cam1', 61.2)
     assert health.problems(61.2) == {}
-
