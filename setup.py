@@ -34,7 +34,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            *(f'{name} = {PACKAGE}.nodes.{name}_node:main' for name in NODES),
+            *(f'{name} = {PACKAGE}.nodes.entry:{name}' for name in NODES),
             f'hand-tracker = {PACKAGE}.cli.main:main',
         ],
     },

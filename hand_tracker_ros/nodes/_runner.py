@@ -8,8 +8,11 @@ Two details make that hold under load:
 
 - rclpy's handler chains to Python's SIGINT handler, which would raise ``KeyboardInterrupt``
   at whatever bytecode runs next, e.g. between a subscription's take and its callback (the
-  recorder then loses that message). Python's handler is replaced by a no-op, so the context
-  shutdown alone ends the spin and every taken message reaches its callback.
+  recorder then loses that message). Python's handler is replaced by a latch that only notes
+  the signal (:data:`hand_tracker_ros.nodes.entry.INTERRUPTS`), so the context shutdown alone
+  ends the spin and every taken message reaches its callback. The node's console entry
+  installs the same latch before its imports, so a SIGINT that came before ``rclpy.init``
+  (rclpy's handler not yet installed) ends the process as soon as it is initialised.
 - The loop spins with a timeout instead of ``rclpy.spin``'s unbounded wait, so a signal that
   lands between the ``context.ok()`` check and the wait (an idle node has no timer to wake it)
   is noticed within ``_SPIN_PERIOD_S``; a shutdown racing the wait-set creation raises
@@ -29,6 +32,7 @@ from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
 from hand_tracker_ros.config import describe, flatten
+from hand_tracker_ros.nodes.entry import INTERRUPTS
 from hand_tracker_ros.ros_env import apply_ros_defaults
 
 _SPIN_PERIOD_S = 0.5
@@ -71,10 +75,12 @@ def run_node(name: str, description: str, config_cls: type,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.parse_args(remove_ros_args(argv)[1:])
     apply_ros_defaults()
-    python_sigint = signal.signal(signal.SIGINT, lambda *_: None)
+    python_sigint = INTERRUPTS.install()
     rclpy.init(args=argv)
     nodes: list[Node] = []
     try:
+        if INTERRUPTS.hit:      # asked to stop before rclpy's handler was in place
+            return 0
         made = factory()
         nodes = [made] if isinstance(made, Node) else list(made)
         _spin(nodes)
@@ -90,5 +96,6 @@ def run_node(name: str, description: str, config_cls: type,
         for node in reversed(nodes):
             node.destroy_node()
         rclpy.try_shutdown()
+        INTERRUPTS.hit = False  # consumed by this run (the CLI and tests run nodes in-process)
         signal.signal(signal.SIGINT, python_sigint)
     return 0

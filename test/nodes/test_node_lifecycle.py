@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import signal
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -61,6 +62,47 @@ def test_node_exits_cleanly_on_sigterm() -> None:
         out, _ = proc.communicate(timeout=30)
     assert proc.returncode == 0, out
     assert 'Traceback' not in out
+
+
+def test_each_node_entry_latches_sigint_before_importing_its_node(monkeypatch) -> None:
+    """A SIGINT during the node's imports is noted, not raised where an import could
+    swallow it (see ``nodes/entry.py``)."""
+    from types import SimpleNamespace
+
+    from hand_tracker_ros.nodes import entry
+
+    handlers = []
+
+    def import_module(name: str) -> SimpleNamespace:
+        handlers.append((name, signal.getsignal(signal.SIGINT)))
+        return SimpleNamespace(main=lambda: 7)
+
+    previous = signal.getsignal(signal.SIGINT)
+    monkeypatch.setattr(entry.importlib, 'import_module', import_module)
+    try:
+        assert [getattr(entry, name)() for name in NODES] == [7] * len(NODES)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert handlers == [(f'hand_tracker_ros.nodes.{name}_node', entry.INTERRUPTS)
+                        for name in NODES]
+    with pytest.raises(AttributeError, match='no node'):
+        entry.composer  # noqa: B018 (the attribute access is the test)
+
+
+def test_a_sigint_latched_before_rclpy_init_stops_the_node_with_0() -> None:
+    """The signal comes after the entry latched SIGINT and before the node initialised rclpy
+    (in practice: while trimesh imports): the node exits 0 at once instead of running on."""
+    script = (
+        'import os, signal, sys\n'
+        'from hand_tracker_ros.nodes.entry import INTERRUPTS\n'
+        'INTERRUPTS.install()\n'
+        'os.kill(os.getpid(), signal.SIGINT)\n'
+        'from hand_tracker_ros.nodes import recorder_node\n'
+        'sys.exit(recorder_node.main(["recorder"]))\n')
+    proc = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert 'Traceback' not in proc.stdout + proc.stderr
 
 
 def test_tracker_without_a_rig_refuses_to_start_and_says_why() -> None:
