@@ -26,7 +26,7 @@ short fit) already takes more (85-140 ms offline at 4 x 320x240, 150-300 ms in t
 graph), and the hand moves on meanwhile. The simulated live loop
 (``bench/simulate_live.py --start search``, seeds 901-912, tracked share per seed) gave a
 mean of 62 % at 120 ms (three seeds under 40 %), 67 % at 80, 76 % at 60 (none under 50 %)
-and 76 % at 40 (one at 0 %); the realtime demo (``hand-tracker demo --realtime``, seeds
+and 76 % at 40 (one at 0 %); the realtime demo (``hand-tracker demo``, seeds
 0, 3, 7, 11, 19, 23) then tracked a median of 46 % of the sets at 60 ms against 29 % at
 120, better on five of the six. The session's live recovery shares this budget.
 
