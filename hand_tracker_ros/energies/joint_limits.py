@@ -75,17 +75,16 @@ Limitation of bone-vector limits (the seed's): a bone vector has two degrees of 
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from hand_tracker_ros._typing import FloatArray, IntArray
+from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.errors import ConfigError
 from hand_tracker_ros.geometry.rotations import (
-    euler_xzy_from_matrix,
+    euler_xzy_from_matrices,
     matrix_from_axis_angle,
     rot_x,
     rot_y,
@@ -99,6 +98,9 @@ from hand_tracker_ros.model.skeleton import FINGER_NAMES, RestSkeleton, joint_li
 NAME = 'limits'
 
 _UPPER_JOINTS = {'thumb': ('mcp', 'ip')}
+_BASE_BONES = 1 + 3 * np.arange(5)      # each finger's first bone (bone_transforms index)
+_BASE_K = 6 + 4 * np.arange(5)          # each finger's base flexion in theta (abduction: + 1)
+_UPPER_K = _BASE_K[:, None] + [2, 3]    # its 2nd and 3rd joints' flexion in theta
 # A projection shorter than this fraction of its bone has no defined in-plane direction.
 _MIN_PROJECTION = 1e-6
 # Angles within this of a limit count as inside: rounding at a limit (a straight finger has
@@ -181,17 +183,17 @@ class LimitAngles:
     elevation: FloatArray
 
 
-def local_angles(local_rot: FloatArray) -> tuple[float, float, float]:
-    """Flexion, abduction and twist (rad) of a base joint's local rotation.
+def local_angles(local_rot: FloatArray) -> FloatArray:
+    """Flexion, abduction and twist ``(..., 3)`` (rad) of base joints' local rotations.
 
     Parameters
     ----------
-    local_rot : (3, 3) float64
-        ``Q``, the bone's rotation relative to its rest frame on the parent, with
+    local_rot : (..., 3, 3) float64
+        ``Q``, each bone's rotation relative to its rest frame on the parent, with
         ``Q^T = Rx(-flex) Rz(abd) Ry(twist)`` (module docstring); twist is found last.
     """
-    tx, tz, ty = euler_xzy_from_matrix(np.asarray(local_rot, dtype=np.float64).T)
-    return -tx, tz, ty
+    rot = np.asarray(local_rot, dtype=np.float64)
+    return euler_xzy_from_matrices(np.swapaxes(rot, -1, -2)) * np.array([-1.0, 1.0, 1.0])
 
 
 def local_rotation(flex_rad: float, abd_rad: float, twist_rad: float) -> FloatArray:
@@ -201,31 +203,33 @@ def local_rotation(flex_rad: float, abd_rad: float, twist_rad: float) -> FloatAr
 
 def fit_plane_normal(points_m: FloatArray, fallback: FloatArray,
                      min_aspect: float) -> FloatArray:
-    """Least-squares plane normal (3,) of ``points_m`` (K, 3), oriented along ``fallback``.
-
-    ``fallback`` (3,), a unit vector, is returned when the points are nearly collinear.
-    """
-    centred = points_m - points_m.mean(axis=0)
+    """Least-squares plane normals ``(..., 3)`` of point sets ``points_m`` ``(..., K, 3)``,
+    each oriented along its ``fallback`` ``(..., 3)``, a unit vector, which is the normal
+    where the points are nearly collinear."""
+    centred = points_m - points_m.mean(axis=-2, keepdims=True)
     _, sing, vt = np.linalg.svd(centred)
-    if sing[1] <= min_aspect * sing[0]:
-        return fallback
-    normal = vt[2]
-    return normal if normal @ fallback >= 0.0 else -normal
+    normal = vt[..., 2, :]
+    normal = np.where(np.sum(normal * fallback, axis=-1, keepdims=True) >= 0.0, normal, -normal)
+    collinear = sing[..., 1] <= min_aspect * sing[..., 0]
+    return np.where(collinear[..., None], fallback, normal)
 
 
-def _signed_angle(a: FloatArray, b: FloatArray, normal: FloatArray) -> float:
-    """Angle (rad) about ``normal`` from ``a`` to ``b`` (both (3,))."""
-    # normal . (a x b) written out: np.cross costs ~6 us per 3-vector call, and this runs
-    # 10 times per correspondence round.
-    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
-    n0, n1, n2 = normal.tolist()
+def _signed_angles(a: FloatArray, b: FloatArray, normals: FloatArray) -> FloatArray:
+    """Angles ``(N,)`` (rad) about ``normals`` from ``a`` to ``b`` (all ``(N, 3)``)."""
+    # normals . (a x b) written out: np.cross on a few rows costs ~30 us a call.
+    (a0, a1, a2), (b0, b1, b2), (n0, n1, n2) = a.T, b.T, normals.T
     sine = n0 * (a1 * b2 - a2 * b1) + n1 * (a2 * b0 - a0 * b2) + n2 * (a0 * b1 - a1 * b0)
-    return math.atan2(sine, float(a @ b))
+    return np.arctan2(sine, np.sum(a * b, axis=-1))
 
 
-def _clamp(value: float, lower: float, upper: float) -> float:
-    """``value`` clamped to ``[lower, upper]`` (``np.clip`` of one number costs ~4 us)."""
-    return float(min(max(value, lower), upper))
+def _project_rows(v: FloatArray, normals: FloatArray) -> FloatArray:
+    """Each row of ``v`` ``(N, 3)`` projected on the plane of its row of ``normals``."""
+    return v - np.sum(v * normals, axis=-1, keepdims=True) * normals
+
+
+def _moved(clamped: FloatArray, angles: FloatArray) -> BoolArray:
+    """Where clamping moved an angle by more than the rounding slack: a violated limit."""
+    return np.abs(clamped - angles) > _ANGLE_TOL_RAD
 
 
 def _project(v: FloatArray, normal: FloatArray) -> FloatArray:
@@ -270,21 +274,19 @@ class JointLimitsEnergy:
 
     def measure(self, posed: PosedHand) -> LimitAngles:
         """The angles this term limits, for a posed hand (``bone_transforms``, ``keypoints_m``)."""
+        # All five fingers at once (a loop over them cost about 1 ms per fit's rounds).
         rot = posed.bone_transforms[:, :3, :3]
-        flex, abd, twist = np.zeros(5), np.zeros(5), np.zeros(5)
-        upper, normals, elev = np.zeros((5, 2)), np.zeros((5, 3)), np.zeros(5)
-        for i in range(5):
-            bone = 1 + 3 * i
-            flex[i], abd[i], twist[i] = local_angles(
-                (rot[0] @ self.rest_rot[bone]).T @ rot[bone])
-            joints = posed.keypoints_m[1 + 4 * i:5 + 4 * i]
-            n = fit_plane_normal(joints, rot[bone][:, 0], self.config.plane_min_aspect)
-            bones = np.diff(joints, axis=0)
-            for j in (1, 2):
-                upper[i, j - 1] = _signed_angle(_project(bones[j - 1], n),
-                                                _project(bones[j], n), n)
-            normals[i], elev[i] = n, np.arcsin(np.clip(n @ rot[0][:, 2], -1.0, 1.0))
-        return LimitAngles(flex, abd, twist, upper, normals, elev)
+        base = rot[_BASE_BONES]                                          # (5, 3, 3)
+        flex, abd, twist = local_angles(
+            np.swapaxes(rot[0] @ self.rest_rot[_BASE_BONES], -1, -2) @ base).T
+        joints = posed.keypoints_m[1:21].reshape(5, 4, 3)                # finger i: 1 + 4i..
+        n = fit_plane_normal(joints, base[:, :, 0], self.config.plane_min_aspect)
+        bones = np.diff(joints, axis=1)                                  # (5, 3, 3)
+        upper = np.stack([_signed_angles(_project_rows(bones[:, j - 1], n),
+                                         _project_rows(bones[:, j], n), n)
+                          for j in (1, 2)], axis=1)
+        elev = np.arcsin(np.clip(n @ rot[0][:, 2], -1.0, 1.0))
+        return LimitAngles(flex, abd, twist, upper, n, elev)
 
     @property
     def weight(self) -> float:
@@ -298,14 +300,25 @@ class JointLimitsEnergy:
     def targets(self, posed: PosedHand) -> LimitTargets:
         """The violated limits of ``posed`` and their targets (see :class:`LimitTargets`)."""
         angles = self.measure(posed)
+        lower, upper = self.lower, self.upper
+        # Every angle clamped to its range at once; a block for each angle the clamp moves.
+        flex = np.clip(angles.base_flex, lower[_BASE_K], upper[_BASE_K])
+        abd = np.clip(angles.base_abd, lower[_BASE_K + 1], upper[_BASE_K + 1])
+        bends = np.clip(angles.upper, lower[_UPPER_K], upper[_UPPER_K])
+        elev = np.clip(angles.elevation, self.plane_range[:, 0], self.plane_range[:, 1])
+        base_out = self.config.bases & (_moved(flex, angles.base_flex)
+                                        | _moved(abd, angles.base_abd))
+        upper_out = self.config.upper_joints & _moved(bends, angles.upper)
+        plane_out = self.config.plane_to_palm & _moved(elev, angles.elevation)
         blocks: list[tuple[int, int, int, FloatArray, str]] = []
-        for i, finger in enumerate(FINGER_NAMES):
-            if self.config.bases:
-                blocks += self._base_blocks(posed, angles, i, finger)
-            if self.config.upper_joints:
-                blocks += self._upper_blocks(posed, angles, i, finger)
-            if self.config.plane_to_palm:
-                blocks += self._plane_blocks(posed, angles, i, finger)
+        for i in np.flatnonzero(base_out | upper_out.any(axis=1) | plane_out).tolist():
+            finger = FINGER_NAMES[i]
+            if base_out[i]:
+                blocks.append(self._base_block(posed, angles, i, finger, flex[i], abd[i]))
+            for j in np.flatnonzero(upper_out[i]).tolist():
+                blocks += self._upper_block(posed, angles, i, j + 1, finger, bends[i, j])
+            if plane_out[i]:
+                blocks += self._plane_blocks(posed, angles, i, finger, elev[i])
         if not blocks:
             empty = np.zeros(0, dtype=np.int64)
             return LimitTargets(empty, empty, empty, np.zeros((0, 3)), ())
@@ -313,15 +326,10 @@ class JointLimitsEnergy:
         return LimitTargets(np.array(child, dtype=np.int64), np.array(parent, dtype=np.int64),
                             np.array(frame, dtype=np.int64), np.array(target), labels)
 
-    def _base_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
-                     finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
-        """The seed's R_L for the base joint of finger ``i`` if it is outside its limits."""
-        k0, bone = 6 + 4 * i, 1 + 3 * i
-        flex, abd = angles.base_flex[i], angles.base_abd[i]
-        flex_c = _clamp(flex, self.lower[k0], self.upper[k0])
-        abd_c = _clamp(abd, self.lower[k0 + 1], self.upper[k0 + 1])
-        if abs(flex_c - flex) <= _ANGLE_TOL_RAD and abs(abd_c - abd) <= _ANGLE_TOL_RAD:
-            return []
+    def _base_block(self, posed: PosedHand, angles: LimitAngles, i: int, finger: str,
+                    flex_c: float, abd_c: float) -> tuple[int, int, int, FloatArray, str]:
+        """The seed's R_L for the base joint of finger ``i``, clamped to ``flex_c, abd_c``."""
+        bone = 1 + 3 * i
         rot = posed.bone_transforms[:, :3, :3]
         rest_a = self.rest_rot[bone]
         r_b, r_a = rot[0], rot[bone] @ rest_a.T      # rotations w.r.t. the rest pose
@@ -330,38 +338,29 @@ class JointLimitsEnergy:
         r_limit = r_b @ clamped @ r_local.T @ r_b.T @ r_a
         rest_vector = rest_a[:, 1] * self.rest.lengths_m[i, 0]
         joint = 'cmc' if finger == 'thumb' else 'mcp'
-        return [(2 + 4 * i, 1 + 4 * i, 0, r_b.T @ r_limit @ rest_vector, f'{finger}_{joint}')]
+        return (2 + 4 * i, 1 + 4 * i, 0, r_b.T @ r_limit @ rest_vector, f'{finger}_{joint}')
 
-    def _upper_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
-                      finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
-        """Rotations about the finger-plane normal bringing the 2nd/3rd joints to their limits."""
-        n = angles.plane_normal[i]
-        bones = np.diff(posed.keypoints_m[1 + 4 * i:5 + 4 * i], axis=0)
-        out = []
-        for j, joint in zip((1, 2), _UPPER_JOINTS.get(finger, ('pip', 'dip'))):
-            k = 6 + 4 * i + 1 + j
-            angle = angles.upper[i, j - 1]
-            clamped = _clamp(angle, self.lower[k], self.upper[k])
-            if abs(clamped - angle) <= _ANGLE_TOL_RAD:
-                continue
-            proj, length = _project(bones[j], n), float(np.linalg.norm(bones[j]))
-            if np.linalg.norm(proj) <= _MIN_PROJECTION * length:
-                continue
-            target = matrix_from_axis_angle(n * (clamped - angle)) @ proj
-            target *= length / np.linalg.norm(proj)
-            frame = 3 * i + j                          # the parent finger bone
-            w_p = posed.bone_transforms[frame, :3, :3]
-            out.append((2 + 4 * i + j, 1 + 4 * i + j, frame, w_p.T @ target, f'{finger}_{joint}'))
-        return out
-
-    def _plane_blocks(self, posed: PosedHand, angles: LimitAngles, i: int,
-                      finger: str) -> list[tuple[int, int, int, FloatArray, str]]:
-        """Smallest rotation of the finger plane to its elevation limit, on all three bones."""
-        lo, hi = self.plane_range[i]
-        elev = angles.elevation[i]
-        clamped = _clamp(elev, lo, hi)
-        if abs(clamped - elev) <= _ANGLE_TOL_RAD:
+    def _upper_block(self, posed: PosedHand, angles: LimitAngles, i: int, j: int, finger: str,
+                     clamped: float) -> list[tuple[int, int, int, FloatArray, str]]:
+        """The rotation about the finger-plane normal bringing joint ``j`` (1: the 2nd, 2: the
+        3rd) of finger ``i`` to ``clamped``; none when the bone is normal to the plane."""
+        n, angle = angles.plane_normal[i], angles.upper[i, j - 1]
+        bone = posed.keypoints_m[2 + 4 * i + j] - posed.keypoints_m[1 + 4 * i + j]
+        proj, length = _project(bone, n), float(np.linalg.norm(bone))
+        if np.linalg.norm(proj) <= _MIN_PROJECTION * length:
             return []
+        target = matrix_from_axis_angle(n * (clamped - angle)) @ proj
+        target *= length / np.linalg.norm(proj)
+        frame = 3 * i + j                              # the parent finger bone
+        w_p = posed.bone_transforms[frame, :3, :3]
+        joint = _UPPER_JOINTS.get(finger, ('pip', 'dip'))[j - 1]
+        return [(2 + 4 * i + j, 1 + 4 * i + j, frame, w_p.T @ target, f'{finger}_{joint}')]
+
+    def _plane_blocks(self, posed: PosedHand, angles: LimitAngles, i: int, finger: str,
+                      clamped: float) -> list[tuple[int, int, int, FloatArray, str]]:
+        """Smallest rotation of the finger plane to the elevation ``clamped``, on all three
+        bones; none when the plane normal is the palm normal (no azimuth)."""
+        elev = angles.elevation[i]
         palm = posed.bone_transforms[0, :3, :3]
         n, z = angles.plane_normal[i], palm[:, 2]
         horizontal = _project(n, z)

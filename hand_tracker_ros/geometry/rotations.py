@@ -122,15 +122,21 @@ def axis_angle_from_matrix(rot: FloatArray) -> FloatArray:
     return axis / np.linalg.norm(axis) * angle
 
 
+def euler_xzy_from_matrices(rots: FloatArray) -> FloatArray:
+    """Decompose rotations ``(..., 3, 3)`` as ``R = Rx(a) Rz(b) Ry(c)``: ``(..., 3)`` of
+    ``(a, b, c)`` rad, ``b`` in [-pi/2, pi/2] (the module docstring; at gimbal lock a = 0)."""
+    rots = np.asarray(rots, dtype=np.float64)
+    b = np.arcsin(np.clip(-rots[..., 0, 1], -1.0, 1.0))
+    locked = np.cos(b) < 1e-9
+    a = np.where(locked, 0.0, np.arctan2(rots[..., 2, 1], rots[..., 1, 1]))
+    c = np.where(locked, np.arctan2(-rots[..., 2, 0], rots[..., 2, 2]),
+                 np.arctan2(rots[..., 0, 2], rots[..., 0, 0]))
+    return np.stack([a, b, c], axis=-1)
+
+
 def euler_xzy_from_matrix(rot: FloatArray) -> tuple[float, float, float]:
     """Decompose ``R = Rx(a) Rz(b) Ry(c)``; returns ``(a, b, c)`` rad, ``b`` in [-pi/2, pi/2]."""
-    rot = np.asarray(rot, dtype=np.float64)
-    b = float(np.arcsin(np.clip(-rot[0, 1], -1.0, 1.0)))
-    if np.cos(b) < 1e-9:
-        # Gimbal lock: only a + c (b = pi/2) or c - a (b = -pi/2) is defined; put it all in c.
-        return 0.0, b, float(np.arctan2(-rot[2, 0], rot[2, 2]))
-    a = float(np.arctan2(rot[2, 1], rot[1, 1]))
-    c = float(np.arctan2(rot[0, 2], rot[0, 0]))
+    a, b, c = euler_xzy_from_matrices(rot).tolist()
     return a, b, c
 
 
