@@ -34,8 +34,8 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            *(f'{name} = {PACKAGE}.nodes.entry:{name}' for name in NODES),
-            f'hand-tracker = {PACKAGE}.cli.main:main',
+            *(f'{name} = {PACKAGE}.entry:{name}' for name in NODES),
+            f'hand-tracker = {PACKAGE}.entry:cli',
         ],
     },
 )

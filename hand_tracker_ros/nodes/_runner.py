@@ -9,7 +9,7 @@ Two details make that hold under load:
 - rclpy's handler chains to Python's SIGINT handler, which would raise ``KeyboardInterrupt``
   at whatever bytecode runs next, e.g. between a subscription's take and its callback (the
   recorder then loses that message). Python's handler is replaced by a latch that only notes
-  the signal (:data:`hand_tracker_ros.nodes.entry.INTERRUPTS`), so the context shutdown alone
+  the signal (:data:`hand_tracker_ros.interrupts.INTERRUPTS`), so the context shutdown alone
   ends the spin and every taken message reaches its callback. The node's console entry
   installs the same latch before its imports, so a SIGINT that came before ``rclpy.init``
   (rclpy's handler not yet installed) ends the process as soon as it is initialised.
@@ -18,24 +18,39 @@ Two details make that hold under load:
   is noticed within ``_SPIN_PERIOD_S``; a shutdown racing the wait-set creation raises
   rclpy's ``RCLError`` ("context is not valid", a ``RuntimeError``; rclpy does not export
   the class), which then also just ends the loop.
+
+The executor. rclpy's ``SingleThreadedExecutor`` rebuilds its wait set in Python for every
+callback it runs, holding the interpreter lock the tracker's fit needs: in the distributed
+graph (24 subscriptions per tracker at 4 cameras) py-spy found the tracker's executor thread
+holding the lock in 17 % of the samples, and a fit took 36.8 ms of wall time for 24.1 ms of
+CPU (27.8 for 23.7 composed). rclpy's ``EventsExecutor`` (``rclpy.experimental``) queues the
+middleware's events in C++ instead; with it, in pairs at 1.0x (README, "Session of 2026-11-26
+(ninth)"), the distributed graph estimated 25.8 / 27.6 / 25.0 / 17.6 sets/s against 15.6 /
+18.4 / 21.4 / 16.8 (latency p50 55-63 ms against 65-91 ms). It cannot wait on guard
+conditions, so a process whose nodes made one (the player's) keeps the single-threaded
+executor; ``HAND_TRACKER_EXECUTOR=single`` in the environment chooses it everywhere.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.context import Context
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
 from hand_tracker_ros.config import describe, flatten
-from hand_tracker_ros.nodes.entry import INTERRUPTS
+from hand_tracker_ros.interrupts import INTERRUPTS
 from hand_tracker_ros.ros_env import apply_ros_defaults
 
 _SPIN_PERIOD_S = 0.5
+EXECUTOR_ENV = 'HAND_TRACKER_EXECUTOR'
 
 
 def _help_text(config_cls: type) -> str:
@@ -47,12 +62,21 @@ def _help_text(config_cls: type) -> str:
     return '\n'.join(lines)
 
 
+def _executor(nodes: Sequence[Node], context: Context) -> Executor:
+    """The events executor unless a node has a guard condition or the environment says
+    ``HAND_TRACKER_EXECUTOR=single`` (module docstring)."""
+    if (os.environ.get(EXECUTOR_ENV, 'events') == 'single'
+            or any(True for node in nodes for _ in node.guards)):
+        return SingleThreadedExecutor(context=context)
+    return EventsExecutor(context=context)
+
+
 def _spin(nodes: Sequence[Node]) -> None:
     """Spin ``nodes`` on one executor until their context shuts down."""
     context = nodes[0].context
     if not context.ok():        # a signal came while the nodes were being built
         return
-    executor = SingleThreadedExecutor(context=context)
+    executor = _executor(nodes, context)
     for node in nodes:
         executor.add_node(node)
     while context.ok():
@@ -96,6 +120,6 @@ def run_node(name: str, description: str, config_cls: type,
         for node in reversed(nodes):
             node.destroy_node()
         rclpy.try_shutdown()
-        INTERRUPTS.hit = False  # consumed by this run (the CLI and tests run nodes in-process)
         signal.signal(signal.SIGINT, python_sigint)
+        INTERRUPTS.hit = False  # consumed by this run (the CLI and tests run nodes in-process)
     return 0

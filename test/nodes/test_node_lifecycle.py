@@ -64,13 +64,20 @@ def test_node_exits_cleanly_on_sigterm() -> None:
     assert 'Traceback' not in out
 
 
-def test_each_node_entry_latches_sigint_before_importing_its_node(monkeypatch) -> None:
-    """A SIGINT during the node's imports is noted, not raised where an import could
-    swallow it (see ``nodes/entry.py``)."""
+def test_each_console_script_is_an_entry_that_latches_sigint_before_its_imports(
+        monkeypatch) -> None:
+    """A SIGINT during the imports is noted, not raised where an import could swallow it
+    (see ``entry.py``): every node, and ``hand-tracker``, which then ends with 130."""
+    from importlib.metadata import entry_points
     from types import SimpleNamespace
 
-    from hand_tracker_ros.nodes import entry
+    from hand_tracker_ros import entry
+    from hand_tracker_ros.interrupts import INTERRUPTS
 
+    scripts = {e.name: e.value for e in entry_points(group='console_scripts')
+               if e.value.startswith('hand_tracker_ros.')}
+    assert scripts == {**{name: f'hand_tracker_ros.entry:{name}' for name in NODES},
+                       'hand-tracker': 'hand_tracker_ros.entry:cli'}
     handlers = []
 
     def import_module(name: str) -> SimpleNamespace:
@@ -78,13 +85,20 @@ def test_each_node_entry_latches_sigint_before_importing_its_node(monkeypatch) -
         return SimpleNamespace(main=lambda: 7)
 
     previous = signal.getsignal(signal.SIGINT)
-    monkeypatch.setattr(entry.importlib, 'import_module', import_module)
+    monkeypatch.setattr(entry, 'import_module', import_module)
     try:
         assert [getattr(entry, name)() for name in NODES] == [7] * len(NODES)
+        signal.signal(signal.SIGINT, previous)       # a node process keeps the latch
+        assert entry.cli() == 7
+        assert signal.getsignal(signal.SIGINT) is previous     # the CLI's is restored
+        monkeypatch.setattr(entry, 'import_module', lambda name: (
+            signal.raise_signal(signal.SIGINT), SimpleNamespace(main=lambda: 7))[1])
+        assert entry.cli() == entry.INTERRUPTED_EXIT           # interrupted while importing
+        assert not INTERRUPTS.hit
     finally:
         signal.signal(signal.SIGINT, previous)
-    assert handlers == [(f'hand_tracker_ros.nodes.{name}_node', entry.INTERRUPTS)
-                        for name in NODES]
+    assert handlers == [(f'hand_tracker_ros.nodes.{name}_node', INTERRUPTS) for name in NODES] \
+        + [('hand_tracker_ros.cli.main', INTERRUPTS)]
     with pytest.raises(AttributeError, match='no node'):
         entry.composer  # noqa: B018 (the attribute access is the test)
 
@@ -94,13 +108,13 @@ def test_a_sigint_latched_before_rclpy_init_stops_the_node_with_0() -> None:
     (in practice: while trimesh imports): the node exits 0 at once instead of running on."""
     script = (
         'import os, signal, sys\n'
-        'from hand_tracker_ros.nodes.entry import INTERRUPTS\n'
+        'from hand_tracker_ros.interrupts import INTERRUPTS\n'
         'INTERRUPTS.install()\n'
         'os.kill(os.getpid(), signal.SIGINT)\n'
         'from hand_tracker_ros.nodes import recorder_node\n'
         'sys.exit(recorder_node.main(["recorder"]))\n')
     proc = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
-                          timeout=60)
+                          timeout=20)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert 'Traceback' not in proc.stdout + proc.stderr
 
@@ -152,3 +166,21 @@ def test_parameters_are_one_info_line_and_each_at_debug(node_process, level,
     each = [line for line in lines if '] param ' in line or ': param ' in line]
     expected = len(flatten(FeaturesNodeConfig())) if param_lines == 'all' else 0
     assert len(each) == expected, lines
+
+
+def test_a_process_spins_on_the_events_executor_unless_a_node_has_a_guard_condition(
+        ros, monkeypatch) -> None:
+    from rclpy.executors import SingleThreadedExecutor
+
+    from hand_tracker_ros.nodes._runner import EXECUTOR_ENV, _executor
+
+    node, _ = ros
+    monkeypatch.delenv(EXECUTOR_ENV, raising=False)
+    events = _executor([node], node.context)
+    assert type(events).__name__ == 'EventsExecutor'
+    monkeypatch.setenv(EXECUTOR_ENV, 'single')
+    assert isinstance(_executor([node], node.context), SingleThreadedExecutor)
+    monkeypatch.delenv(EXECUTOR_ENV)
+    node.create_guard_condition(lambda: None)       # the player has one
+    assert isinstance(_executor([node], node.context), SingleThreadedExecutor)
+    events.shutdown()
