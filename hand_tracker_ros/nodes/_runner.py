@@ -41,13 +41,17 @@ from collections.abc import Callable, Sequence
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
-from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
 from hand_tracker_ros.config import describe, flatten
 from hand_tracker_ros.interrupts import INTERRUPTS
 from hand_tracker_ros.ros_env import apply_ros_defaults
+
+try:        # rclpy from Kilted on; an older rclpy spins every process single-threaded
+    from rclpy.experimental import EventsExecutor
+except ImportError:
+    EventsExecutor = None
 
 _SPIN_PERIOD_S = 0.5
 EXECUTOR_ENV = 'HAND_TRACKER_EXECUTOR'
@@ -65,7 +69,7 @@ def _help_text(config_cls: type) -> str:
 def _executor(nodes: Sequence[Node], context: Context) -> Executor:
     """The events executor unless a node has a guard condition or the environment says
     ``HAND_TRACKER_EXECUTOR=single`` (module docstring)."""
-    if (os.environ.get(EXECUTOR_ENV, 'events') == 'single'
+    if (EventsExecutor is None or os.environ.get(EXECUTOR_ENV, 'events') == 'single'
             or any(True for node in nodes for _ in node.guards)):
         return SingleThreadedExecutor(context=context)
     return EventsExecutor(context=context)
