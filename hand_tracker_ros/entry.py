@@ -10,8 +10,9 @@ it imports anything else:
 
 - a node keeps the latch: :func:`hand_tracker_ros.nodes._runner.run_node` shuts down at once
   after ``rclpy.init`` if it was hit;
-- ``hand-tracker`` restores Python's handler after its imports and ends with 130 (the
-  shell's code for an interrupted command) if the latch was hit meanwhile.
+- ``hand-tracker`` restores the previous handler after its imports and ends with 130 (the
+  shell's code for an interrupted command) if the latch was hit meanwhile; a process that
+  ignores SIGINT (a background job of a script) is left ignoring it.
 
 This module imports only the standard library, the node list and the latch, so the latch is
 in place about 40 ms after the interpreter starts (the console script's own
@@ -32,9 +33,13 @@ INTERRUPTED_EXIT = 130
 
 def cli() -> int:
     """``hand-tracker``: :func:`hand_tracker_ros.cli.main.main`, imported under the latch."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        return import_module(f'{__package__}.cli.main').main()
     previous = INTERRUPTS.install()
-    main = import_module(f'{__package__}.cli.main').main
-    signal.signal(signal.SIGINT, previous)
+    try:
+        main = import_module(f'{__package__}.cli.main').main
+    finally:
+        signal.signal(signal.SIGINT, previous)
     if INTERRUPTS.hit:
         INTERRUPTS.hit = False
         return INTERRUPTED_EXIT

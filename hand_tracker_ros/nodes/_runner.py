@@ -20,15 +20,20 @@ Two details make that hold under load:
   the class), which then also just ends the loop.
 
 The executor. rclpy's ``SingleThreadedExecutor`` rebuilds its wait set in Python for every
-callback it runs, holding the interpreter lock the tracker's fit needs: in the distributed
+wait (with events that come one at a time, about every callback), holding the interpreter
+lock the tracker's fit needs: in the distributed
 graph (24 subscriptions per tracker at 4 cameras) py-spy found the tracker's executor thread
 holding the lock in 17 % of the samples, and a fit took 36.8 ms of wall time for 24.1 ms of
 CPU (27.8 for 23.7 composed). rclpy's ``EventsExecutor`` (``rclpy.experimental``) queues the
 middleware's events in C++ instead; with it, in pairs at 1.0x (README, "Session of 2026-11-26
 (ninth)"), the distributed graph estimated 25.8 / 27.6 / 25.0 / 17.6 sets/s against 15.6 /
-18.4 / 21.4 / 16.8 (latency p50 55-63 ms against 65-91 ms). It cannot wait on guard
-conditions, so a process whose nodes made one (the player's) keeps the single-threaded
-executor; ``HAND_TRACKER_EXECUTOR=single`` in the environment chooses it everywhere.
+18.4 / 21.4 / 16.8 (latency p50 55-63 ms against 65-91 ms); composed, the pairs showed no
+difference that the runs' spread resolves. It cannot wait on guard conditions, so a process
+whose nodes made one (a player with a bag to play) keeps the single-threaded executor.
+``HAND_TRACKER_EXECUTOR=single`` in the environment chooses that one everywhere, e.g. should
+one of rclpy's open issues on the events executor (ros2/rclpy#1641, #1644: crashes when a
+task raises, or when entities with event callbacks are destroyed while it spins; our nodes
+do neither) bite.
 """
 from __future__ import annotations
 
@@ -41,6 +46,7 @@ from collections.abc import Callable, Sequence
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
@@ -48,13 +54,9 @@ from hand_tracker_ros.config import describe, flatten
 from hand_tracker_ros.interrupts import INTERRUPTS
 from hand_tracker_ros.ros_env import apply_ros_defaults
 
-try:        # rclpy from Kilted on; an older rclpy spins every process single-threaded
-    from rclpy.experimental import EventsExecutor
-except ImportError:
-    EventsExecutor = None
-
 _SPIN_PERIOD_S = 0.5
 EXECUTOR_ENV = 'HAND_TRACKER_EXECUTOR'
+EXECUTORS = ('events', 'single')
 
 
 def _help_text(config_cls: type) -> str:
@@ -68,8 +70,8 @@ def _help_text(config_cls: type) -> str:
 
 def _executor(nodes: Sequence[Node], context: Context) -> Executor:
     """The events executor unless a node has a guard condition or the environment says
-    ``HAND_TRACKER_EXECUTOR=single`` (module docstring)."""
-    if (EventsExecutor is None or os.environ.get(EXECUTOR_ENV, 'events') == 'single'
+    ``HAND_TRACKER_EXECUTOR=single`` (module docstring; :func:`run_node` checks the value)."""
+    if (os.environ.get(EXECUTOR_ENV) == 'single'
             or any(True for node in nodes for _ in node.guards)):
         return SingleThreadedExecutor(context=context)
     return EventsExecutor(context=context)
@@ -102,6 +104,9 @@ def run_node(name: str, description: str, config_cls: type,
         prog=name, description=description, epilog=_help_text(config_cls),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.parse_args(remove_ros_args(argv)[1:])
+    if os.environ.get(EXECUTOR_ENV, EXECUTORS[0]) not in EXECUTORS:
+        parser.error(f'{EXECUTOR_ENV} must be one of {", ".join(EXECUTORS)}, got '
+                     f'{os.environ[EXECUTOR_ENV]!r}')
     apply_ros_defaults()
     python_sigint = INTERRUPTS.install()
     rclpy.init(args=argv)

@@ -1,6 +1,7 @@
 """Every node starts, shows up in the ROS graph, and exits 0 on SIGINT or SIGTERM."""
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -34,19 +35,21 @@ def test_bag_playback_waits_for_every_image_reader_of_every_rig_camera(mode: str
 
 
 @pytest.mark.parametrize('mode', GRAPH_MODES)
-def test_graph_comes_up_and_stops_cleanly_on_sigint(mode: str) -> None:
+def test_graph_comes_up_and_stops_cleanly_on_sigint(mode: str, tmp_path: Path) -> None:
     """Both modes show the same five nodes (composed: three of them in one process)."""
     from hand_tracker_ros.ros_io.graph import wait_for_nodes
 
     specs = graph_specs(rig=str(RIG), mode=mode)
-    group = ProcessGroup(specs, output=open('/dev/null', 'w'))
-    group.start()
-    try:
-        seen = wait_for_nodes(NODES, timeout_s=60.0)
-    finally:
-        codes = group.stop()
-    assert seen == set(NODES)
-    assert codes == dict.fromkeys((s.name for s in specs), 0)
+    with open(tmp_path / 'graph.log', 'w') as log:
+        group = ProcessGroup(specs, output=log)
+        group.start()
+        try:
+            seen = wait_for_nodes(NODES, timeout_s=60.0)
+        finally:
+            codes = group.stop()
+    output = (tmp_path / 'graph.log').read_text()
+    assert seen == set(NODES), output
+    assert codes == dict.fromkeys((s.name for s in specs), 0), output
 
 
 def test_node_exits_cleanly_on_sigterm() -> None:
@@ -91,10 +94,20 @@ def test_each_console_script_is_an_entry_that_latches_sigint_before_its_imports(
         signal.signal(signal.SIGINT, previous)       # a node process keeps the latch
         assert entry.cli() == 7
         assert signal.getsignal(signal.SIGINT) is previous     # the CLI's is restored
-        monkeypatch.setattr(entry, 'import_module', lambda name: (
-            signal.raise_signal(signal.SIGINT), SimpleNamespace(main=lambda: 7))[1])
+
+        def interrupted_import(name: str) -> SimpleNamespace:
+            assert signal.getsignal(signal.SIGINT) is INTERRUPTS
+            INTERRUPTS(signal.SIGINT, None)                     # the signal, as it would come
+            return SimpleNamespace(main=lambda: 7)
+
+        monkeypatch.setattr(entry, 'import_module', interrupted_import)
         assert entry.cli() == entry.INTERRUPTED_EXIT           # interrupted while importing
         assert not INTERRUPTS.hit
+        assert signal.getsignal(signal.SIGINT) is previous
+        signal.signal(signal.SIGINT, signal.SIG_IGN)            # a background job's
+        monkeypatch.setattr(entry, 'import_module', lambda name: SimpleNamespace(
+            main=lambda: signal.getsignal(signal.SIGINT)))
+        assert entry.cli() is signal.SIG_IGN                    # left ignoring it
     finally:
         signal.signal(signal.SIGINT, previous)
     assert handlers == [(f'hand_tracker_ros.nodes.{name}_node', INTERRUPTS) for name in NODES] \
@@ -181,6 +194,41 @@ def test_a_process_spins_on_the_events_executor_unless_a_node_has_a_guard_condit
     monkeypatch.setenv(EXECUTOR_ENV, 'single')
     assert isinstance(_executor([node], node.context), SingleThreadedExecutor)
     monkeypatch.delenv(EXECUTOR_ENV)
-    node.create_guard_condition(lambda: None)       # the player has one
+    node.create_guard_condition(lambda: None)       # a player with a bag makes one
     assert isinstance(_executor([node], node.context), SingleThreadedExecutor)
     events.shutdown()
+
+
+@pytest.mark.parametrize(('choice', 'spun_on'), [(None, 'EventsExecutor'),
+                                                  ('single', 'SingleThreadedExecutor')])
+def test_run_node_spins_on_the_chosen_executor(choice, spun_on) -> None:
+    """A node run by ``run_node`` reports its executor from a timer, then SIGINT ends it."""
+    script = (
+        'import os, signal, sys\n'
+        'from rclpy.node import Node\n'
+        'from hand_tracker_ros.node_config import RecorderNodeConfig\n'
+        'from hand_tracker_ros.nodes._runner import run_node\n'
+        'class Probe(Node):\n'
+        '    def __init__(self):\n'
+        '        super().__init__("executor_probe")\n'
+        '        self.create_timer(0.05, self.tick)\n'
+        '    def tick(self):\n'
+        '        print("spun on", type(self.executor).__name__, flush=True)\n'
+        '        os.kill(os.getpid(), signal.SIGINT)\n'
+        'sys.exit(run_node("probe", "", RecorderNodeConfig, Probe, ["probe"]))\n')
+    env = {k: v for k, v in os.environ.items() if k != 'HAND_TRACKER_EXECUTOR'}
+    if choice is not None:
+        env['HAND_TRACKER_EXECUTOR'] = choice
+    proc = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                          timeout=60, env=env)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert f'spun on {spun_on}' in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_an_unknown_executor_choice_is_a_clear_startup_error() -> None:
+    env = {**os.environ, 'HAND_TRACKER_EXECUTOR': 'Single'}
+    proc = subprocess.run([str(executable('features'))], capture_output=True, text=True,
+                          timeout=60, env=env)
+    assert proc.returncode == 2
+    assert "HAND_TRACKER_EXECUTOR must be one of events, single, got 'Single'" in proc.stderr
+    assert 'Traceback' not in proc.stdout + proc.stderr
