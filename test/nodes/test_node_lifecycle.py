@@ -91,9 +91,11 @@ def test_each_console_script_is_an_entry_that_latches_sigint_before_its_imports(
     monkeypatch.setattr(entry, 'import_module', import_module)
     try:
         assert [getattr(entry, name)() for name in NODES] == [7] * len(NODES)
-        signal.signal(signal.SIGINT, previous)       # a node process keeps the latch
+        # A node process keeps the latch; the CLI starts from Python's own handler (this
+        # process may run in the background, with SIGINT ignored).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         assert entry.cli() == 7
-        assert signal.getsignal(signal.SIGINT) is previous     # the CLI's is restored
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler   # restored
 
         def interrupted_import(name: str) -> SimpleNamespace:
             assert signal.getsignal(signal.SIGINT) is INTERRUPTS
@@ -103,7 +105,7 @@ def test_each_console_script_is_an_entry_that_latches_sigint_before_its_imports(
         monkeypatch.setattr(entry, 'import_module', interrupted_import)
         assert entry.cli() == entry.INTERRUPTED_EXIT           # interrupted while importing
         assert not INTERRUPTS.hit
-        assert signal.getsignal(signal.SIGINT) is previous
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
         signal.signal(signal.SIGINT, signal.SIG_IGN)            # a background job's
         monkeypatch.setattr(entry, 'import_module', lambda name: SimpleNamespace(
             main=lambda: signal.getsignal(signal.SIGINT)))
