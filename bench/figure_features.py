@@ -15,6 +15,7 @@ import argparse
 import cv2
 import numpy as np
 
+from hand_tracker_ros.render.fingertips import cap_slack_m, visible_fingertips
 from hand_tracker_ros.render.rasterizer import render
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.vision.detector.detector import FingertipDetector
@@ -41,7 +42,7 @@ def main() -> None:
     posed = sequence.model.pose(current.theta, jacobian=False)
     raster = render(camera, posed.vertices_m, sequence.model.faces)
     tips = posed.fingertip_vertex_ids
-    visible = raster.visible_vertices[tips]
+    visible = visible_fingertips(raster, tips, cap_slack_m(sequence.model))
 
     left = image.copy()
     left[edge_image(features.edges) > 0] = (40, 230, 40)

@@ -5,7 +5,9 @@ together with the pose: at every correspondence round, in every camera, the dete
 assigned anew to the fingertip vertices of the model as it is posed at the start of the round.
 
 Assignment. Let ``y_j`` (j < N) be the detections with score ``>= min_score`` and ``u_k`` the
-projections of the model fingertip vertices visible in the current raster. With the distances
+projections of the model fingertips that show in the current raster
+(:func:`hand_tracker_ros.render.fingertips.visible_fingertips`: the vertex test with the depth
+slack of the tip cap, as in the detector's training labels). With the distances
 ``d_jk = |y_j - u_k|`` and the gate ``g``, we minimise over partial matchings ``A``
 
 .. math:: \sum_{(j,k) \in A} d_{jk} + g \, \#\{j \text{ unassigned}\},
@@ -54,6 +56,7 @@ from hand_tracker_ros.energies._projection import (
     image_residuals,
 )
 from hand_tracker_ros.model.hand import HandModel, PosedHand
+from hand_tracker_ros.render.fingertips import cap_slack_m, visible_fingertips
 from hand_tracker_ros.render.rasterizer import RenderResult
 
 NAME = 'salient'
@@ -143,19 +146,25 @@ class SalientEnergy:
     config : SalientConfig
     fingertip_vertex_ids : (5,) int
         Mesh vertex of each fingertip, thumb to pinky (``HandModel.fingertip_vertex_ids``).
+    tip_slack_m : (5,) float
+        Depth slack of each fingertip's visibility test
+        (:func:`hand_tracker_ros.render.fingertips.cap_slack_m`), m.
     """
 
     name = NAME
 
-    def __init__(self, config: SalientConfig, fingertip_vertex_ids: IntArray) -> None:
+    def __init__(self, config: SalientConfig, fingertip_vertex_ids: IntArray,
+                 tip_slack_m: FloatArray) -> None:
         self.config = config
         self.fingertip_vertex_ids = np.asarray(fingertip_vertex_ids, dtype=np.int64)
+        self.tip_slack_m = np.asarray(tip_slack_m, dtype=np.float64)
         check_shape('fingertip_vertex_ids', self.fingertip_vertex_ids, (None,))
+        check_shape('tip_slack_m', self.tip_slack_m, self.fingertip_vertex_ids.shape)
 
     @classmethod
     def from_model(cls, config: SalientConfig, model: HandModel) -> SalientEnergy:
         """The term for a :class:`~hand_tracker_ros.model.hand.HandModel`."""
-        return cls(config, model.fingertip_vertex_ids)
+        return cls(config, model.fingertip_vertex_ids, cap_slack_m(model))
 
     def gate_px(self, width_px: int) -> float:
         """The gate (px) in an image ``width_px`` wide."""
@@ -190,7 +199,8 @@ class SalientEnergy:
         tips = obs.tips
         labels = np.full(tips.score.shape[0], -1, dtype=np.int64)
         uv = raster.uv_px[self.fingertip_vertex_ids]
-        fingers = np.flatnonzero(raster.visible_vertices[self.fingertip_vertex_ids]
+        fingers = np.flatnonzero(visible_fingertips(raster, self.fingertip_vertex_ids,
+                                                    self.tip_slack_m)
                                  & np.all(np.isfinite(uv), axis=1))
         strong = np.flatnonzero(tips.score >= self.config.min_score)
         tip = assign_detections(uv[fingers], tips.uv_px[strong], self.gate_px(obs.camera.width))

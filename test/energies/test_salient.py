@@ -19,6 +19,7 @@ from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.layout import PARAM_NAMES, P
 from hand_tracker_ros.optim.lm import LMConfig, levenberg_marquardt
 from hand_tracker_ros.render.contours import MeshEdges
+from hand_tracker_ros.render.fingertips import cap_slack_m, visible_fingertips
 from hand_tracker_ros.vision.detections import SalientDetections
 
 TIPS = np.array([[50.0, 50.0], [80.0, 40.0], [110.0, 38.0], [140.0, 45.0], [165.0, 60.0]])
@@ -69,19 +70,26 @@ def test_assignment_edge_cases():
 
 
 class Scene:
-    """The hand before two 320x240 cameras, detections at the true projected fingertips."""
+    """The hand before two 320x240 cameras, detections at the true projected fingertips
+    that show."""
 
     def __init__(self, model: object) -> None:
         self.model = model
         self.rig = CameraRig.ring(2, 320, 240, radius_m=0.4)
         self.edges = MeshEdges.from_faces(model.faces)
         centre = -model.pose(model.neutral_theta(), jacobian=False).vertices_m.mean(axis=0)
-        self.theta_true = model.neutral_theta(tuple(centre))
+        # Ring and pinky curled into the palm, so that a tip is hidden in a view.
+        theta = model.neutral_theta(tuple(centre))
+        curled = [PARAM_NAMES.index(f'{finger}_{joint}_flex') for finger in ('ring', 'pinky')
+                  for joint in ('mcp', 'pip', 'dip')]
+        theta[curled] = model.upper[curled]
+        self.theta_true = theta
         posed = model.pose(self.theta_true, jacobian=False)
         self.truth_views = model_views(posed, self.edges, tuple(self.rig))
         self.tips_uv = [view.raster.uv_px[model.fingertip_vertex_ids]
                         for view in self.truth_views]
-        self.tips_visible = [view.raster.visible_vertices[model.fingertip_vertex_ids]
+        self.tips_visible = [visible_fingertips(view.raster, model.fingertip_vertex_ids,
+                                                cap_slack_m(model))
                              for view in self.truth_views]
 
     def detections(self, rng: np.random.Generator) -> list[SalientDetections]:
