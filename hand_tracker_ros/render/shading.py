@@ -72,7 +72,8 @@ def _perspective_weights(raster: RenderResult, tri: np.ndarray, ys: np.ndarray,
 def render_rgb(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
                vertex_normals: ArrayLike, background: UInt8Array, *, seed: int = 0,
                raster: RenderResult | None = None,
-               config: ShadingConfig = ShadingConfig()) -> UInt8Array:
+               config: ShadingConfig = ShadingConfig(),
+               albedo_gain: ArrayLike | None = None) -> UInt8Array:
     """Shaded skin-coloured rendering of a mesh composited over ``background``.
 
     Parameters
@@ -90,6 +91,8 @@ def render_rgb(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
     raster : RenderResult, optional
         This view's rasterization if already computed (it is rendered otherwise).
     config : ShadingConfig
+    albedo_gain : (V,) float64, optional
+        Factor on each vertex's albedo (skin creases in the detector's training views).
 
     Returns
     -------
@@ -122,6 +125,10 @@ def render_rgb(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
     light /= np.linalg.norm(light)
     shade = config.ambient + config.diffuse * np.clip(n_cam @ light, 0.0, None)
     albedo = vertex_albedo(len(normals), seed, config)
+    if albedo_gain is not None:
+        gain = np.asarray(albedo_gain, dtype=np.float64)
+        check_shape('albedo_gain', gain, (len(normals),))
+        albedo = albedo * gain[:, None]
     colour = np.einsum('pk,pkc->pc', w, albedo[tri]) * shade[:, None]
     image = background.copy()
     image[ys, xs] = np.clip(np.rint(colour), 0, 255).astype(np.uint8)

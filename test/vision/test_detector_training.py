@@ -63,7 +63,7 @@ def test_augmented_crops_keep_each_tip_on_its_pixel():
     cfg = TrainingConfig(crop_height=40, crop_width=48, hand_crop_fraction=0.5,
                          augmentation=plain)
     masks = np.zeros(images.shape[:3], bool)
-    crops, moved = augment(images, masks, uv, cfg, rng)
+    crops, moved, _ = augment(images, masks, uv, cfg, rng)
     assert crops.shape == (8, 40, 48, 3)
     for crop, tips in zip(crops, moved):
         for k, (u, v) in enumerate(tips[:4]):

@@ -3,8 +3,9 @@ r"""Training-time augmentation of the rendered views: skin tone, background, sca
 The renders (:mod:`.data`) have one skin tone (a light one, +-8 % per channel), textured
 synthetic backgrounds and hands of one size range (68-155 px, 5th-95th percentile of the
 bounding-box side, at 320 x 240). A network trained on them alone found none of five tips on
-real photos at their native scale and none on a darker hand. Each training view therefore
-goes through, in order (every draw from the training ``rng``):
+real photos at their native scale and none on a darker hand. The training views are rendered
+with skin creases (:mod:`.creases`, ``crease_depth``), and each then goes through, in order
+(every draw from the training ``rng``):
 
 1. skin tone (:func:`recolour_skin`): with probability ``skin_probability`` the hand pixels
    (the render's mask) are multiplied per channel by :math:`g = (d / b)^t`,
@@ -25,15 +26,27 @@ goes through, in order (every draw from the training ``rng``):
    :math:`\sigma = 0.5 \sqrt{1/s^2 - 1}` px) against aliasing;
 5. lighting and camera (:func:`photometric`): contrast, brightness, gamma, per-channel
    gains (white balance), with probability 0.5 a Gaussian blur and with probability 0.3 a
-   JPEG round trip.
+   JPEG round trip;
+6. hand size (:func:`size_labels`, scale selection): with ``small_hand_px = (lo, hi)``, a
+   crop whose hand (bounding-box side of the render's mask, times the scale) is smaller
+   than ``lo`` keeps its tips only as negatives, and one from ``lo`` to ``hi`` has them
+   ignored. The network then answers only for hands of at least ``lo``, the lower end of
+   the range one pyramid level is for (:mod:`.detector`): a hand too small there is found at a
+   finer level, and a finer level's small hands need not fire at a coarser one (SNIP's
+   scale normalisation, Singh & Davis 2018, with negatives instead of ignored
+   out-of-range objects at the small end).
 
-Ranges are ours, chosen on principle rather than on any test image: the scale range is an
-octave (0.7-1.4), the span between two levels of the detector's image pyramid
-(:mod:`.detector`), so a hand of any size larger than the renders' lands inside the trained
-range at some level (the renders' hands are 68-155 px, 5th-95th percentile of the
-bounding-box side at 320 x 240; a first range of 0.5-2 gave lower precision on the
-synthetic validation views); the dark tone is about the darkest of common skin-tone
-palettes; the lighting ranges are those of indoor webcams.
+Ranges are ours, chosen on principle rather than on any test image. Scale 0.4-1.8 (hands of
+about 27-280 px from the renders' 68-155 px, 5th-95th percentile of the bounding-box side at
+320 x 240) spans what one level of the detector's image pyramid (:mod:`.detector`, a level
+is added while the image's short side exceeds 300 px) can hold: small and distant hands at
+full resolution, and hands up to most of a 320 x 240 view. Hands under 40 px are negatives
+and 40-55 px ignored (step 6), because a 2-3 px finger is no longer a fingertip's shape.
+The first ranges, 0.5-2 and 0.7-1.4 without size classes, cost more precision on the
+synthetic validation views (``training.py``'s log). The dark tone is about the darkest of
+common skin-tone palettes; the lighting ranges are those of indoor webcams.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 
@@ -53,7 +66,7 @@ BASE_SKIN_RGB = np.array([224.0, 172.0, 145.0])
 class AugmentationConfig:
     """Augmentation of the training views (module docstring)."""
 
-    scale_range: tuple = param((0.7, 1.4), 'range of the scale factor s of the crops '
+    scale_range: tuple = param((0.4, 1.8), 'range of the scale factor s of the crops '
                                '(log-uniform)', low=0.05, high=20.0)
     skin_probability: float = param(0.7, 'probability of a recoloured skin tone', low=0.0,
                                     high=1.0)
@@ -62,6 +75,13 @@ class AugmentationConfig:
     plain_background_probability: float = param(0.2, 'probability of a plain background',
                                                  low=0.0, high=1.0)
     photometric: bool = param(True, 'contrast, brightness, gamma, white balance, blur, JPEG')
+    crease_depth: tuple = param((0.0, 0.5), 'range of the darkening of the skin creases '
+                                '(:mod:`.creases`), drawn per training view when it is '
+                                'rendered; (0, 0): none', low=0.0, high=1.0)
+    small_hand_px: tuple = param((40.0, 55.0), 'hands smaller than the first (bounding-box side '
+                                 'in the crop) are negatives, up to the second ignored; '
+                                 '(0, 0): every hand is a positive', unit='px', low=0.0,
+                                 high=10000.0)
 
 
 def recolour_skin(image: UInt8Array, mask: BoolArray, gain: FloatArray) -> UInt8Array:
@@ -121,6 +141,38 @@ def scaled_crop(image: UInt8Array, uv_px: FloatArray, scale: float, origin_px: F
     crop = cv2.warpAffine(image, affine, (crop_hw[1], crop_hw[0]), flags=cv2.INTER_LINEAR,
                           borderMode=cv2.BORDER_REPLICATE)
     return crop, scale * (uv_px - origin_px)
+
+
+def hand_size_px(mask: BoolArray) -> float:
+    """Bounding-box side (the longer one, px) of the ``mask`` (H, W) pixels; 0 if empty."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
+        return 0.0
+    return float(max(rows[-1] - rows[0], cols[-1] - cols[0]) + 1)
+
+
+def size_labels(uv_px: FloatArray, visible: BoolArray, hand_px: FloatArray,
+                small_hand_px: tuple) -> tuple[FloatArray, BoolArray]:
+    """Tip labels of a batch with the hands' sizes in the crops (step 6).
+
+    Parameters
+    ----------
+    uv_px : (B, 5, 2) float64
+    visible : (B, 5) bool
+    hand_px : (B,) float64
+        Each crop's hand size (:func:`hand_size_px` times the crop's scale).
+    small_hand_px : (float, float)
+        ``(lo, hi)``: below ``lo`` the tips become negatives (hidden, no position, so no cell
+        is ignored around them), from ``lo`` to ``hi`` hidden (ignored around them).
+
+    Returns
+    -------
+    uv_px : (B, 5, 2) float64
+    visible : (B, 5) bool
+    """
+    lo, hi = small_hand_px
+    uv = np.where((hand_px < lo)[:, None, None], np.nan, uv_px)
+    return uv, visible & (hand_px >= hi)[:, None]
 
 
 def photometric(crop: UInt8Array, rng: np.random.Generator) -> UInt8Array:
