@@ -69,7 +69,7 @@ class SalientConfig:
     enabled: bool = param(True, 'use the salient-point (fingertip) term')
     weight: float = param(0.3, 'term weight (cost = 0.5 * weight * |r|^2, r in px); below the '
                           'edge weight because some detections are false (bench_detector: '
-                          'precision 0.96 at min_score 0.5)',
+                          'precision 0.94 at min_score 0.5)',
                           low=0.0, high=1e6)
     min_score: float = param(0.5, 'detections below this score are ignored', low=0.0,
                              high=1.0)
