@@ -4,10 +4,12 @@ runtime runs the ONNX export with ONNX Runtime).
 Steps, all deterministic in the seed (data order, augmentation and initialisation come from
 the seed; PyTorch runs with deterministic algorithms on ``threads`` threads):
 
-1. render ``n_views`` labelled views (:mod:`.data`);
+1. render ``n_views`` labelled views (:mod:`.data`), with skin creases
+   (``augmentation.crease_depth``, :mod:`.creases`);
 2. per step, a batch of ``batch_size`` views, each augmented (:mod:`.augment`: skin tone,
    plain background, flips, a crop of ``crop_height`` x ``crop_width`` px at a random scale,
-   lighting and camera effects); the crop is centred, with probability
+   lighting and camera effects), its tips relabelled by the hand's size in the crop
+   (:func:`.augment.size_labels`); the crop is centred, with probability
    ``hand_crop_fraction``, around the mean of the tips plus a uniform shift of up to a third
    of the crop, else anywhere (background negatives);
 3. targets at 1/4 resolution (:func:`targets`): with :math:`c_k = \mathrm{round}(t_k / 4)`
