@@ -4,8 +4,8 @@ Needs PyTorch and ONNX (requirements/train.txt), which the default install leave
 them the command prints the exact pip command, or runs it with ``--install``
 (``HT_TRAIN=1 bash tools/setup.sh`` installs them too). The same seed and options give the same
 model file, byte for byte, on the same machine. The shipped model
-(hand_tracker_ros/vision/models/fingertip_cnn.onnx) is ``train-detector --seed 0`` (on 2
-threads, the default).
+(hand_tracker_ros/vision/models/fingertip_cnn.onnx) was trained with the options of
+``train-detector --seed 0`` (the defaults, 2 threads).
 """
 from __future__ import annotations
 

@@ -14,18 +14,19 @@ A fingertip therefore *shows* when its projection rounds to a pixel inside the i
 of the 3 x 3 pixels around it has a z-buffer depth of at least :math:`z - 2r` (background
 counts as infinitely deep): the same test with the slack :math:`2r`. Every ray to the tip
 meets the cap sphere at most :math:`2r` before it, so the wider slack adds the tips hidden
-only by their own cap. A tip behind another part or deep behind its own finger stays hidden
-unless that occluder is less than :math:`2r` before it; on the same views, requiring in
-addition that the pixel show the finger's own distal bone (triangle ids) changed none of the
-1500 tips.
+only by their own cap (:math:`2r` is 13-17 mm on the default hand). A tip behind another
+part or deep behind its own finger stays hidden unless that occluder is less than :math:`2r`
+before it; on the same views, requiring in addition that the pixel show the finger's own
+distal bone (triangle ids) changed none of the 1500 tips.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
+from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.render.rasterizer import RenderResult
+from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult
 
 
 def cap_slack_m(model: HandModel) -> FloatArray:
@@ -34,8 +35,8 @@ def cap_slack_m(model: HandModel) -> FloatArray:
     return np.array([2.0 * model.sphere_radii_m[model.sphere_part == b].min() for b in bones])
 
 
-def visible_fingertips(raster: RenderResult, tip_ids: IntArray, slack_m: FloatArray
-                       ) -> BoolArray:
+def visible_fingertips(raster: RenderResult, tip_ids: IntArray, slack_m: FloatArray,
+                       near_m: float = RenderConfig().near_m) -> BoolArray:
     """Whether each fingertip shows in ``raster`` (module docstring).
 
     Parameters
@@ -45,15 +46,18 @@ def visible_fingertips(raster: RenderResult, tip_ids: IntArray, slack_m: FloatAr
         Fingertip vertices.
     slack_m : (K,) float64
         Depth slack of each (:func:`cap_slack_m`), m.
+    near_m : float
+        Near plane of the render (m): nearer tips are hidden, as in the vertex test.
 
     Returns
     -------
     (K,) bool
     """
+    check_shape('slack_m', np.asarray(slack_m), np.shape(tip_ids))
     visible = raster.visible_vertices[tip_ids].copy()
     uv, z = raster.uv_px[tip_ids], raster.vertex_depth_m[tip_ids]
     height, width = raster.depth_m.shape
-    for k in np.flatnonzero(~visible & np.all(np.isfinite(uv), axis=1) & (z > 0.0)):
+    for k in np.flatnonzero(~visible & np.all(np.isfinite(uv), axis=1) & (z > near_m)):
         u, v = (int(c) for c in np.rint(uv[k]))
         if 0 <= u < width and 0 <= v < height:
             window = raster.depth_m[max(v - 1, 0):v + 2, max(u - 1, 0):u + 2]

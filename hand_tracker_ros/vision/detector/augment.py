@@ -30,11 +30,12 @@ with skin creases (:mod:`.creases`, ``crease_depth``), and each then goes throug
 6. hand size (:func:`size_labels`, scale selection): with ``small_hand_px = (lo, hi)``, a
    crop whose hand (bounding-box side of the render's mask, times the scale) is smaller
    than ``lo`` keeps its tips only as negatives, and one from ``lo`` to ``hi`` has them
-   ignored. The network then answers only for hands of at least ``lo``, the lower end of
-   the range one pyramid level is for (:mod:`.detector`): a hand too small there is found at a
-   finer level, and a finer level's small hands need not fire at a coarser one (SNIP's
-   scale normalisation, Singh & Davis 2018, with negatives instead of ignored
-   out-of-range objects at the small end).
+   ignored. The network then answers only for hands of at least ``lo``, so that the
+   coarser levels of the pyramid (:mod:`.detector`) need not fire on the small hands of a
+   finer one (SNIP's scale normalisation, Singh & Davis 2018, with negatives instead of
+   ignored out-of-range objects at the small end). The pyramid only shrinks: a hand under
+   ``lo`` at full resolution is not detected (the renders' hands are 68-155 px, 5th-95th
+   percentile, at 320 x 240).
 
 Ranges are ours, chosen on principle rather than on any test image. Scale 0.4-1.8 (hands of
 about 27-280 px from the renders' 68-155 px, 5th-95th percentile of the bounding-box side at
@@ -42,8 +43,8 @@ about 27-280 px from the renders' 68-155 px, 5th-95th percentile of the bounding
 is added while the image's short side exceeds 300 px) can hold: small and distant hands at
 full resolution, and hands up to most of a 320 x 240 view. Hands under 40 px are negatives
 and 40-55 px ignored (step 6), because a 2-3 px finger is no longer a fingertip's shape.
-The first ranges, 0.5-2 and 0.7-1.4 without size classes, cost more precision on the
-synthetic validation views (``training.py``'s log). The dark tone is about the darkest of
+The earlier ranges, 0.5-2 and 0.7-1.4 without size classes, and the runs since are in
+``training.py``'s log. The dark tone is about the darkest of
 common skin-tone palettes; the lighting ranges are those of indoor webcams.
 
 References: docs/references.md.

@@ -11,15 +11,16 @@ Each crease is a plane across a finger bone in the rest pose (theta = 0): throug
 at the proximal end of the middle and distal bones of each finger (PIP, DIP) and of the
 thumb's proximal and distal bones (MCP, IP), and at ``base_fraction`` of each finger's
 proximal bone from its joint (the digital crease, at the web between the fingers). A vertex
-of the two bones next to a crease, at distance :math:`s` (m) from its plane along the bone
-axis and with rest normal :math:`\hat n`, gets
+of the bones next to a crease (both joint bones; the palm and the proximal bone for the base
+crease, whose web vertices may belong to the palm), at distance :math:`s` (m) from its plane
+along the bone axis and with rest normal :math:`\hat n`, gets
 
 .. math:: w_v = \exp(-s^2 / 2\sigma^2)\,
           \mathrm{clip}((\hat n \cdot \hat p - 0.2) / 0.3, 0, 1),
 
 with :math:`\sigma` = ``width_m`` and :math:`\hat p` the finger's palmar direction: where its
 tip moves when its last joint flexes from the rest pose. The crease positions are ours (the
-joints, and a third of the proximal bone for the web), not measured on any photo.
+joints, and 0.3 of the proximal bone for the web), not measured on any photo.
 """
 from __future__ import annotations
 

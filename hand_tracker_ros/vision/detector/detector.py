@@ -21,8 +21,9 @@ Per image (:class:`.model.DetectorModel` runs the network with ONNX Runtime, no 
    with score :math:`p`; at most ``max_detections``, highest score first.
 
 Scale. The network finds hands up to about ``max_hand_px`` (bounding-box side; the renders
-it is trained on have hands of 68-155 px, 5th-95th percentile, at 320 x 240, and the scale
-augmentation of :mod:`.augment` widens that by an octave). A hand close to the camera can
+it is trained on have hands of 68-155 px, 5th-95th percentile, at 320 x 240; the scale
+augmentation of :mod:`.augment` widens that to about 40-280 px, hands under 40 px being
+trained as negatives). A hand close to the camera can
 fill the image, so :meth:`FingertipDetector.detect` runs an image pyramid: level
 :math:`k` is the image shrunk by :math:`2^k` (area averaging), and levels are added while the
 previous one's short side exceeds ``max_hand_px`` (at most ``max_levels``). At 320 x 240 that

@@ -10,7 +10,8 @@ centred on pixel ``(u, v) = STRIDE * (j, i)`` (two stride-2 convolutions with
 Why ONNX Runtime rather than OpenCV's ``cv2.dnn``, which would need no extra dependency:
 the network alone (same architecture at 16 / 32 channels, 50 M multiply-accumulates) took
 1.7 ms per 320 x 240 image on one thread with ONNX Runtime and 3.8 ms with ``cv2.dnn`` on the
-shared 2-core machine, 2.5-3.5x slower for every size we tried; PyTorch would work too but is
+shared 2-core machine in an earlier, slower hour (0.81 ms with ONNX Runtime in the tenth
+session), 2.5-3.5x slower for every size we tried; PyTorch would work too but is
 a 700 MB dependency for a model of 50-90 kB.
 """
 from __future__ import annotations

@@ -23,6 +23,8 @@ default widths (24 / 48) come to 98 M MAC at 320 x 240 (16 / 32: 50 M), 1.37 aga
 shipped model: (1, H, W, 3) uint8 RGB in, (1, 3, ceil(H/4), ceil(W/4)) float32 out with the
 tip probability :math:`\sigma(\text{logit})` in channel 0, so the runtime needs no
 preprocessing.
+
+References: docs/references.md.
 """
 from __future__ import annotations
 

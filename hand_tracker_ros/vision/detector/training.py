@@ -98,8 +98,11 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
   change costs synthetic precision at 32 channels. From scratch with all of them, 24 / 48
   channels (1.37 against 0.81 ms per 320 x 240 image), 60 epochs: 0.884 / 0.784, real
   9 / 13; the same with the skin creases of :mod:`.creases` (``crease_depth`` 0-0.5):
-  0.880 / 0.807, real 10 / 15 (4, 4, 2, 5 per photo at 150), bench 0.893 / 0.821 (below the
-  0.9 precision the shipped model keeps). ``max_hand_px`` 150, which finds the most tips on
+  0.880 / 0.807, real 10 / 15 (4, 4, 2, 5 per photo at 150), bench 0.893 / 0.821; the same
+  on 6000 views (the defaults since, the shipped model; 27 min): 0.889 / 0.811, real
+  12 / 12 (3, 4, 0, 5 at the default pyramid), bench 0.899 / 0.851 (the previous model
+  0.929 / 0.835), 1.37 against 0.81 ms per image. A run on 8000 views was stopped for
+  time. ``max_hand_px`` 150, which finds the most tips on
   the photos, adds a half-size level at 320 x 240 whose detections cost precision on the
   synthetic views (0.826 / 0.793 on seed 1 with the crease model; keeping a finer level's
   detection over a coarser one's: 0.837 / 0.814, but 12 tips on the photos).
