@@ -72,7 +72,8 @@ def main() -> None:
             print(_row('raster kernel, no triangle ids', _time_ms(
                 lambda: _rasterize(uv, z, faces, width, height, 0.01, True, False))))
             zbuf, _ = _rasterize(uv, z, faces, width, height, 0.01, True, True)
-            print(_row('visibility kernel', _time_ms(lambda: _visible(uv, z, zbuf, 0.01, 0.002))))
+            print(_row('visibility kernel', _time_ms(
+                lambda: _visible(uv, z, zbuf, 0.01, np.full(len(z), 0.002)))))
             print(_row('render() = project+raster+visibility',
                        _time_ms(lambda: render(cam, verts, faces))))
             print(_row('contour_points', _time_ms(

@@ -24,9 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
-from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult
+from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, visible_with_slack
 
 
 def cap_slack_m(model: HandModel) -> FloatArray:
@@ -45,7 +44,8 @@ def visible_fingertips(raster: RenderResult, tip_ids: IntArray, slack_m: FloatAr
     tip_ids : (K,) int64
         Fingertip vertices.
     slack_m : (K,) float64
-        Depth slack of each (:func:`cap_slack_m`), m.
+        Depth slack of each (:func:`cap_slack_m`), m; wider than the vertex test's, so every
+        vertex that test finds visible shows.
     near_m : float
         Near plane of the render (m): nearer tips are hidden, as in the vertex test.
 
@@ -53,13 +53,4 @@ def visible_fingertips(raster: RenderResult, tip_ids: IntArray, slack_m: FloatAr
     -------
     (K,) bool
     """
-    check_shape('slack_m', np.asarray(slack_m), np.shape(tip_ids))
-    visible = raster.visible_vertices[tip_ids].copy()
-    uv, z = raster.uv_px[tip_ids], raster.vertex_depth_m[tip_ids]
-    height, width = raster.depth_m.shape
-    for k in np.flatnonzero(~visible & np.all(np.isfinite(uv), axis=1) & (z > near_m)):
-        u, v = (int(c) for c in np.rint(uv[k]))
-        if 0 <= u < width and 0 <= v < height:
-            window = raster.depth_m[max(v - 1, 0):v + 2, max(u - 1, 0):u + 2]
-            visible[k] = bool(np.any(window >= z[k] - slack_m[k]))
-    return visible
+    return visible_with_slack(raster, tip_ids, slack_m, near_m)

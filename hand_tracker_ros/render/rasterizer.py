@@ -51,7 +51,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, Int32Array
+from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, Int32Array, IntArray
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
 from hand_tracker_ros.errors import ShapeError
@@ -139,7 +139,7 @@ def _rasterize(uv: FloatArray, z: FloatArray, faces: np.ndarray, width: int, hei
 
 @numba.njit(cache=True, nogil=True)
 def _visible(uv: FloatArray, z: FloatArray, zbuf: Float32Array, near: float,
-             tol: float) -> BoolArray:
+             tol: FloatArray) -> BoolArray:
     height, width = zbuf.shape
     out = np.zeros(z.shape[0], dtype=np.bool_)
     for i in range(z.shape[0]):
@@ -151,12 +151,22 @@ def _visible(uv: FloatArray, z: FloatArray, zbuf: Float32Array, near: float,
             continue
         for py in range(max(cv - 1, 0), min(cv + 2, height)):
             for px in range(max(cu - 1, 0), min(cu + 2, width)):
-                if zbuf[py, px] >= z[i] - tol:
+                if zbuf[py, px] >= z[i] - tol[i]:
                     out[i] = True
                     break
             if out[i]:
                 break
     return out
+
+
+def visible_with_slack(raster: RenderResult, vertex_ids: IntArray, slack_m: FloatArray,
+                       near_m: float = RenderConfig().near_m) -> BoolArray:
+    """The vertex visibility test (module docstring) of ``vertex_ids`` (K,) with a depth slack
+    of its own for each, ``slack_m`` (K,) in m, in place of ``visibility_tol_m``: (K,) bool."""
+    ids = np.asarray(vertex_ids, dtype=np.int64)
+    slack = np.asarray(slack_m, dtype=np.float64)
+    check_shape('slack_m', slack, ids.shape)
+    return _visible(raster.uv_px[ids], raster.vertex_depth_m[ids], raster.depth_m, near_m, slack)
 
 
 def render(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
@@ -189,7 +199,7 @@ def render(camera: Camera, vertices_world: ArrayLike, faces: ArrayLike,
     uv, z = camera.project(vertices_world)
     zbuf, fbuf = _rasterize(uv, z, faces_arr, camera.width, camera.height, config.near_m,
                             config.cull_back_faces, config.face_ids)
-    visible = _visible(uv, z, zbuf, config.near_m, config.visibility_tol_m)
+    visible = _visible(uv, z, zbuf, config.near_m, np.full(z.shape[0], config.visibility_tol_m))
     for arr in (uv, z, visible):
         arr.setflags(write=False)
     return RenderResult(depth_m=zbuf, mask=zbuf < np.inf,
