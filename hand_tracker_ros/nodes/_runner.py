@@ -68,21 +68,20 @@ def _help_text(config_cls: type) -> str:
     return '\n'.join(lines)
 
 
-def _executor(nodes: Sequence[Node], context: Context) -> Executor:
-    """The events executor unless a node has a guard condition or the environment says
-    ``HAND_TRACKER_EXECUTOR=single`` (module docstring; :func:`run_node` checks the value)."""
-    if (os.environ.get(EXECUTOR_ENV) == 'single'
-            or any(True for node in nodes for _ in node.guards)):
+def _executor(nodes: Sequence[Node], context: Context, choice: str) -> Executor:
+    """The events executor unless a node has a guard condition or ``choice`` (one of
+    :data:`EXECUTORS`, from ``HAND_TRACKER_EXECUTOR``) is ``single`` (module docstring)."""
+    if choice == 'single' or any(True for node in nodes for _ in node.guards):
         return SingleThreadedExecutor(context=context)
     return EventsExecutor(context=context)
 
 
-def _spin(nodes: Sequence[Node]) -> None:
-    """Spin ``nodes`` on one executor until their context shuts down."""
+def _spin(nodes: Sequence[Node], executor_choice: str) -> None:
+    """Spin ``nodes`` on one executor (:func:`_executor`) until their context shuts down."""
     context = nodes[0].context
     if not context.ok():        # a signal came while the nodes were being built
         return
-    executor = _executor(nodes, context)
+    executor = _executor(nodes, context, executor_choice)
     for node in nodes:
         executor.add_node(node)
     while context.ok():
@@ -104,9 +103,10 @@ def run_node(name: str, description: str, config_cls: type,
         prog=name, description=description, epilog=_help_text(config_cls),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.parse_args(remove_ros_args(argv)[1:])
-    if os.environ.get(EXECUTOR_ENV, EXECUTORS[0]) not in EXECUTORS:
+    executor_choice = os.environ.get(EXECUTOR_ENV, EXECUTORS[0])
+    if executor_choice not in EXECUTORS:
         parser.error(f'{EXECUTOR_ENV} must be one of {", ".join(EXECUTORS)}, got '
-                     f'{os.environ[EXECUTOR_ENV]!r}')
+                     f'{executor_choice!r}')
     apply_ros_defaults()
     python_sigint = INTERRUPTS.install()
     rclpy.init(args=argv)
@@ -116,7 +116,7 @@ def run_node(name: str, description: str, config_cls: type,
             return 0
         made = factory()
         nodes = [made] if isinstance(made, Node) else list(made)
-        _spin(nodes)
+        _spin(nodes, executor_choice)
     except ExternalShutdownException:
         pass
     except Exception:

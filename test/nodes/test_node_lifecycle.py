@@ -184,20 +184,17 @@ def test_parameters_are_one_info_line_and_each_at_debug(node_process, level,
 
 
 def test_a_process_spins_on_the_events_executor_unless_a_node_has_a_guard_condition(
-        ros, monkeypatch) -> None:
+        ros) -> None:
     from rclpy.executors import SingleThreadedExecutor
 
-    from hand_tracker_ros.nodes._runner import EXECUTOR_ENV, _executor
+    from hand_tracker_ros.nodes._runner import _executor
 
     node, _ = ros
-    monkeypatch.delenv(EXECUTOR_ENV, raising=False)
-    events = _executor([node], node.context)
+    events = _executor([node], node.context, 'events')
     assert type(events).__name__ == 'EventsExecutor'
-    monkeypatch.setenv(EXECUTOR_ENV, 'single')
-    assert isinstance(_executor([node], node.context), SingleThreadedExecutor)
-    monkeypatch.delenv(EXECUTOR_ENV)
+    assert isinstance(_executor([node], node.context, 'single'), SingleThreadedExecutor)
     node.create_guard_condition(lambda: None)       # a player with a bag makes one
-    assert isinstance(_executor([node], node.context), SingleThreadedExecutor)
+    assert isinstance(_executor([node], node.context, 'events'), SingleThreadedExecutor)
     events.shutdown()
 
 
