@@ -109,12 +109,12 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
   - a fine texture added to the training views (probability 0.5; value noise of 1-6 px
     grain, 5-35 gray levels, sometimes stretched along one axis, up to three straight lines,
     on the background; a multiplicative texture of up to 8 % on the skin), because the
-    network found no tip on ``Back_Projection_Theory0.jpg`` until the speckled ceiling
-    behind the hand was blurred (4 of 5 then). From scratch on 6000 views: 0.875 / 0.817
-    (0.923 / 0.746 at 0.5, where the 6000-view model has 0.936 / 0.747), real 12 / 14
-    (3, 2, 3, 4); fine-tuning the 6000-view model with it for 15 epochs (peak lr 1e-3):
-    0.870 / 0.822, real 11 / 13. The texture finds tips on that photo and costs precision
-    on the renders, so it was taken out again;
+    6000-view network found no tip on ``Back_Projection_Theory0.jpg`` until the speckled
+    ceiling behind the hand was blurred (4 of 5 then; the 8000-view one 3). From scratch on
+    6000 views: 0.875 / 0.817 (0.923 / 0.746 at 0.5, where the 6000-view model has
+    0.936 / 0.747), real 12 / 14 (3, 2, 3, 4); fine-tuning the 6000-view model with it for
+    15 epochs (peak lr 1e-3): 0.870 / 0.822, real 11 / 13. The texture finds tips on that
+    photo and costs precision on the renders, so it was taken out again;
   - 8000 views (``train-detector --seed 0``, the defaults since, the shipped model; 36 min
     at 2 threads, run by the CLI): 0.893 / 0.820, real 10 / 14 (3, 2, 0, 5 at the default
     pyramid; 4, 3, 2, 5 at 150), bench 0.917 / 0.858 (the 6000-view model 0.899 / 0.851 in
