@@ -119,7 +119,12 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
     at 2 threads, run by the CLI): 0.893 / 0.820, real 10 / 14 (3, 2, 0, 5 at the default
     pyramid; 4, 3, 2, 5 at 150), bench 0.917 / 0.858 (the 6000-view model 0.899 / 0.851 in
     the same hour), 0.903 / 0.871 on the bench views enlarged 2x (0.897 / 0.893),
-    1.37 ms per image.
+    1.37 ms per image;
+  - 8000 views with the fine texture (49 min beside other work; not shipped for lack of
+    time to verify it in the tracker): 0.885 / 0.838 at 0.4, 0.952 / 0.771 at 0.5 (the
+    8000-view model 0.949 / 0.744): on 8000 views the texture no longer costs precision at
+    equal recall. Real 11 / 15 (2, 2, 2, 5; 4, 4, 2, 5 at 150), bench 0.914 / 0.863, 2x
+    seed 1 0.858 / 0.860 (the 8000-view model 0.858 / 0.832). The next candidate.
 """
 from __future__ import annotations
 
