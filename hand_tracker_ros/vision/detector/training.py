@@ -124,7 +124,8 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
     time to verify it in the tracker): 0.885 / 0.838 at 0.4, 0.952 / 0.771 at 0.5 (the
     8000-view model 0.949 / 0.744): on 8000 views the texture no longer costs precision at
     equal recall. Real 11 / 15 (2, 2, 2, 5; 4, 4, 2, 5 at 150), bench 0.914 / 0.863, 2x
-    seed 1 0.858 / 0.860 (the 8000-view model 0.858 / 0.832). The next candidate.
+    seed 1 0.858 / 0.860 (the 8000-view model 0.858 / 0.832). The next candidate (the
+    git branch ``detector-texture``).
 """
 from __future__ import annotations
 
