@@ -25,7 +25,7 @@ import numpy as np
 
 from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.render.rasterizer import RenderConfig, RenderResult, visible_with_slack
+from hand_tracker_ros.render.rasterizer import RenderResult, visible_with_slack
 
 
 def cap_slack_m(model: HandModel) -> FloatArray:
@@ -34,8 +34,8 @@ def cap_slack_m(model: HandModel) -> FloatArray:
     return np.array([2.0 * model.sphere_radii_m[model.sphere_part == b].min() for b in bones])
 
 
-def visible_fingertips(raster: RenderResult, tip_ids: IntArray, slack_m: FloatArray,
-                       near_m: float = RenderConfig().near_m) -> BoolArray:
+def visible_fingertips(raster: RenderResult, tip_ids: IntArray, slack_m: FloatArray
+                       ) -> BoolArray:
     """Whether each fingertip shows in ``raster`` (module docstring).
 
     Parameters
@@ -45,12 +45,11 @@ def visible_fingertips(raster: RenderResult, tip_ids: IntArray, slack_m: FloatAr
         Fingertip vertices.
     slack_m : (K,) float64
         Depth slack of each (:func:`cap_slack_m`), m; wider than the vertex test's, so every
-        vertex that test finds visible shows.
-    near_m : float
-        Near plane of the render (m): nearer tips are hidden, as in the vertex test.
+        vertex that test finds visible shows. Tips nearer than the render's default near
+        plane are hidden, as in the vertex test.
 
     Returns
     -------
     (K,) bool
     """
-    return visible_with_slack(raster, tip_ids, slack_m, near_m)
+    return visible_with_slack(raster, tip_ids, slack_m)
