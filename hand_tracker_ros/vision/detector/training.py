@@ -7,8 +7,8 @@ the seed; PyTorch runs with deterministic algorithms on ``threads`` threads):
 1. render ``n_views`` labelled views (:mod:`.data`), with skin creases
    (``augmentation.crease_depth``, :mod:`.creases`);
 2. per step, a batch of ``batch_size`` views, each augmented (:mod:`.augment`: skin tone,
-   plain background, flips, a crop of ``crop_height`` x ``crop_width`` px at a random scale,
-   lighting and camera effects), its tips relabelled by the hand's size in the crop
+   plain background, fine texture, flips, a crop of ``crop_height`` x ``crop_width`` px at
+   a random scale, lighting and camera effects), its tips relabelled by the hand's size in the crop
    (:func:`.augment.size_labels`); the crop is centred, with probability
    ``hand_crop_fraction``, around the mean of the tips plus a uniform shift of up to a third
    of the crop, else anywhere (background negatives);
@@ -149,6 +149,7 @@ from hand_tracker_ros.vision.detector.augment import (
     scaled_crop,
     size_labels,
     skin_gain,
+    textured,
 )
 from hand_tracker_ros.vision.detector.data import labelled_views
 from hand_tracker_ros.vision.detector.model import INPUT_NAME, OUTPUT_NAME, STRIDE
@@ -261,6 +262,8 @@ def augment(images: UInt8Array, masks: BoolArray, uv_px: FloatArray, cfg: Traini
             image = recolour_skin(image, mask, skin_gain(rng, aug))
         if rng.random() < aug.plain_background_probability:
             image = plain_background(image, mask, rng)
+        if rng.random() < aug.texture_probability:
+            image = textured(image, mask, rng)
         if rng.random() < 0.5:  # pixel centres are integers: u -> W - 1 - u
             image, uv[i, :, 0] = image[:, ::-1], width - 1 - uv[i, :, 0]
         if rng.random() < 0.5:
