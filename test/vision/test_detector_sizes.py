@@ -1,4 +1,4 @@
-"""The hand-size classes of the detector's training crops (augment.py, step 6)."""
+"""The hand-size classes of the detector's training crops (augment.py, step 7)."""
 from __future__ import annotations
 
 import numpy as np

@@ -59,7 +59,8 @@ def test_augmented_crops_keep_each_tip_on_its_pixel():
         images[:, int(v), int(u)] = 50 * (k + 1)
     # Scale 1 and no photometric changes: every tip pixel keeps its value.
     plain = AugmentationConfig(scale_range=(1.0, 1.0), skin_probability=0.0,
-                               plain_background_probability=0.0, photometric=False)
+                               plain_background_probability=0.0, texture_probability=0.0,
+                               photometric=False)
     cfg = TrainingConfig(crop_height=40, crop_width=48, hand_crop_fraction=0.5,
                          augmentation=plain)
     masks = np.zeros(images.shape[:3], bool)

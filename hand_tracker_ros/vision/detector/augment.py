@@ -16,18 +16,28 @@ with skin creases (:mod:`.creases`, ``crease_depth``), and each then goes throug
 2. background (:func:`plain_background`): with probability ``plain_background_probability``
    the non-hand pixels become a plain surface (a random gray-ish colour, a linear gradient
    and weak noise), which the renders' noise / stripes / blobs backgrounds never are;
-3. flips left-right and up-down (probability 0.5 each);
-4. scale and crop (:func:`scaled_crop`): the crop window of the source is
+3. fine texture (:func:`fine_texture`): with probability ``texture_probability`` a
+   zero-mean texture of 1-6 px grain (:math:`a\,t`, :math:`a \sim U(5, 35)` gray levels,
+   sometimes stretched along one axis as in fabric or wood) and with probability 0.5 up to
+   three straight lines (tile seams, table edges) are added to the non-hand pixels, and a
+   weaker texture of its own multiplies the hand pixels by
+   :math:`1 + b\,t`, :math:`b \sim U(0, 0.08)` (mottled skin, pores, pads). The renders'
+   backgrounds vary over 13 px and more, and their skin is smooth; on a photo of a hand
+   before a speckled ceiling tile (Back_Projection_Theory0.jpg of the real-photo bench) the
+   network found no tip until that background was blurred. That photo showed what was
+   missing; the ranges are not fitted to it;
+4. flips left-right and up-down (probability 0.5 each);
+5. scale and crop (:func:`scaled_crop`): the crop window of the source is
    ``crop / s`` px, :math:`\log s \sim U(\log s_0, \log s_1)` (``scale_range``), resampled to
    the crop size; the window is centred on the tips' mean plus a uniform shift of a third of
    the window (probability ``hand_crop_fraction``), else anywhere, and moved inside the view
    where it fits (else centred, the border replicated: a reflected border would show
    unlabelled mirror hands). Shrinking first low-passes the view (Gaussian,
    :math:`\sigma = 0.5 \sqrt{1/s^2 - 1}` px) against aliasing;
-5. lighting and camera (:func:`photometric`): contrast, brightness, gamma, per-channel
+6. lighting and camera (:func:`photometric`): contrast, brightness, gamma, per-channel
    gains (white balance), with probability 0.5 a Gaussian blur and with probability 0.3 a
    JPEG round trip;
-6. hand size (:func:`size_labels`, scale selection): with ``small_hand_px = (lo, hi)``, a
+7. hand size (:func:`size_labels`, scale selection): with ``small_hand_px = (lo, hi)``, a
    crop whose hand (bounding-box side of the render's mask, times the scale) is smaller
    than ``lo`` keeps its tips only as negatives, and one from ``lo`` to ``hi`` has them
    ignored. The network then answers only for hands of at least ``lo``, so that the
@@ -42,7 +52,7 @@ about 27-280 px from the renders' 68-155 px, 5th-95th percentile of the bounding
 320 x 240) spans what one level of the detector's image pyramid (:mod:`.detector`, a level
 is added while the image's short side exceeds 300 px) can hold: small and distant hands at
 full resolution, and hands up to most of a 320 x 240 view. Hands under 40 px are negatives
-and 40-55 px ignored (step 6), because a 2-3 px finger is no longer a fingertip's shape.
+and 40-55 px ignored (step 7), because a 2-3 px finger is no longer a fingertip's shape.
 The earlier ranges, 0.5-2 and 0.7-1.4 without size classes, and the runs since are in
 ``training.py``'s log. The dark tone is about the darkest of
 common skin-tone palettes; the lighting ranges are those of indoor webcams.
@@ -56,7 +66,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from hand_tracker_ros._typing import BoolArray, FloatArray, UInt8Array
+from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, UInt8Array
 from hand_tracker_ros.config import param
 
 # The renders' base skin albedo (data._BASE_SKIN).
@@ -75,6 +85,9 @@ class AugmentationConfig:
                                  'the base tone', low=0.0, high=255.0)
     plain_background_probability: float = param(0.2, 'probability of a plain background',
                                                  low=0.0, high=1.0)
+    texture_probability: float = param(0.5, 'probability of a fine texture on the '
+                                       'background (and a weaker one on the skin)',
+                                       low=0.0, high=1.0)
     photometric: bool = param(True, 'contrast, brightness, gamma, white balance, blur, JPEG')
     crease_depth: tuple = param((0.0, 0.5), 'range of the darkening of the skin creases '
                                 '(:mod:`.creases`), drawn per training view when it is '
@@ -112,9 +125,49 @@ def plain_background(image: UInt8Array, mask: BoolArray, rng: np.random.Generato
     return np.where(mask[..., None], image, surface)
 
 
+def fine_texture(shape_hw: tuple[int, int], rng: np.random.Generator) -> Float32Array:
+    r"""A random texture (H, W) float32, zero mean and unit standard deviation (step 3).
+
+    Two octaves of value noise (uniform random grids upsampled bicubically, the coarser one
+    at half weight) with a grain of :math:`g \sim` log-U(1, 6) px, stretched with
+    probability 0.3 by up to 3x along one image axis (and shrunk along the other).
+    """
+    height, width = shape_hw
+    grain = np.exp(rng.uniform(0.0, np.log(6.0)))
+    stretch = np.exp(rng.uniform(-np.log(3.0), np.log(3.0))) if rng.random() < 0.3 else 1.0
+    texture = np.zeros((height, width), np.float32)
+    for octave, weight in ((1.0, 1.0), (2.0, 0.5)):
+        cell_u, cell_v = grain * octave * stretch, grain * octave / stretch
+        grid = rng.random((int(height / cell_v) + 2, int(width / cell_u) + 2), np.float32)
+        texture += np.float32(weight) * cv2.resize(grid, (width, height),
+                                                   interpolation=cv2.INTER_CUBIC)
+    mean, std = cv2.meanStdDev(texture)
+    return (texture - np.float32(mean[0, 0])) / np.float32(max(std[0, 0], 1e-9))
+
+
+def textured(image: UInt8Array, mask: BoolArray, rng: np.random.Generator) -> UInt8Array:
+    """``image`` with a fine texture and lines added to its background and a weaker texture
+    multiplying its ``mask`` (hand) pixels (step 3)."""
+    height, width = mask.shape
+    background = np.float32(rng.uniform(5.0, 35.0)) * fine_texture((height, width), rng)
+    if rng.random() < 0.5:
+        lines = np.zeros((height, width), np.float32)
+        for _ in range(int(rng.integers(1, 4))):
+            centre, angle = rng.uniform((0.0, 0.0), (width, height)), rng.uniform(0.0, np.pi)
+            reach = (width + height) * np.array([np.cos(angle), np.sin(angle)])
+            ends = np.rint([centre - reach, centre + reach]).astype(int)
+            cv2.line(lines, tuple(ends[0]), tuple(ends[1]), float(rng.choice((-1, 1)))
+                     * rng.uniform(20.0, 60.0), int(rng.integers(1, 5)))
+        background += lines
+    skin = 1.0 + np.float32(rng.uniform(0.0, 0.08)) * fine_texture((height, width), rng)
+    gain = np.where(mask, skin, np.float32(1.0))[..., None]
+    offset = np.where(mask, np.float32(0.0), background)[..., None]
+    return np.clip(image * gain + offset, 0.0, 255.0).astype(np.uint8)
+
+
 def scaled_crop(image: UInt8Array, uv_px: FloatArray, scale: float, origin_px: FloatArray,
                 crop_hw: tuple[int, int]) -> tuple[UInt8Array, FloatArray]:
-    """The crop whose pixel (u, v) is the source point ``origin + (u, v) / scale`` (step 4).
+    """The crop whose pixel (u, v) is the source point ``origin + (u, v) / scale`` (step 5).
 
     Parameters
     ----------
@@ -154,7 +207,7 @@ def hand_size_px(mask: BoolArray) -> float:
 
 def size_labels(uv_px: FloatArray, visible: BoolArray, hand_px: FloatArray,
                 small_hand_px: tuple) -> tuple[FloatArray, BoolArray]:
-    """Tip labels of a batch with the hands' sizes in the crops (step 6).
+    """Tip labels of a batch with the hands' sizes in the crops (step 7).
 
     Parameters
     ----------
@@ -177,7 +230,7 @@ def size_labels(uv_px: FloatArray, visible: BoolArray, hand_px: FloatArray,
 
 
 def photometric(crop: UInt8Array, rng: np.random.Generator) -> UInt8Array:
-    """Random contrast, brightness, gamma, white balance, blur and JPEG (step 5)."""
+    """Random contrast, brightness, gamma, white balance, blur and JPEG (step 6)."""
     x = crop.astype(np.float32) / 255.0
     x = x ** rng.uniform(0.7, 1.4)
     gain = rng.uniform(0.6, 1.3) * rng.uniform(0.85, 1.15, 3)
