@@ -12,7 +12,7 @@ from hand_tracker_ros.vision.detector.data import labelled_views
 from hand_tracker_ros.vision.detector.detector import (
     DetectorConfig,
     FingertipDetector,
-    merge_levels,
+    level_strength,
     pyramid_levels,
 )
 from hand_tracker_ros.vision.detector.evaluation import DetectionTally
@@ -83,13 +83,53 @@ def test_pyramid_adds_octaves_while_the_image_exceeds_the_largest_hand():
     assert pyramid_levels((1080, 1920), 300.0, 2) == 2
 
 
-def test_merging_drops_a_coarser_duplicate_and_keeps_the_rest():
-    fine = (np.array([[100.0, 50.0], [10.0, 10.0]]), np.array([0.6, 0.5]), 4.0)
-    coarse = (np.array([[104.0, 55.0], [300.0, 200.0]]), np.array([0.9, 0.7]), 8.0)
-    merged = merge_levels([fine, coarse], max_detections=5)
-    np.testing.assert_allclose(merged.uv_px, [[104.0, 55.0], [300.0, 200.0], [10.0, 10.0]])
-    np.testing.assert_allclose(merged.score, [0.9, 0.7, 0.5])
-    assert merge_levels([fine, coarse], max_detections=1).score.tolist() == [0.9]
+class LevelModel:
+    """A stand-in for the network: at pyramid level k (told by the image width) one peak of
+    probability ``strengths[k]`` at cell (row 2, column 3), zero offset."""
+
+    def __init__(self, width: int, strengths: list[float]) -> None:
+        self.width, self.strengths = width, strengths
+
+    def maps(self, image):
+        height, width = image.shape[:2]
+        maps = np.zeros((3, -(-height // 4), -(-width // 4)), np.float32)
+        maps[0, 2, 3] = self.strengths[round(np.log2(self.width / width))]
+        return maps
+
+
+def test_level_strength_sums_the_highest_peaks():
+    maps = np.zeros((3, 20, 20), np.float32)
+    for (row, col), p in zip([(2, 2), (2, 10), (10, 2), (10, 10), (16, 16)],
+                             [0.9, 0.8, 0.3, 0.2, 0.1]):
+        maps[0, row, col] = p
+    assert level_strength(maps, 3) == pytest.approx(2.0)
+    assert level_strength(maps, 10) == pytest.approx(2.3)
+
+
+@pytest.mark.parametrize('strengths, level', [
+    ([0.5, 0.6, 0.62], 1),     # level 1 is 20 % stronger; level 2 not 10 % stronger than it
+    ([0.5, 0.52, 0.9], 2),     # level 1 within the margin, level 2 beyond it
+    ([0.5, 0.5, 0.5], 0),      # ties keep the finest level
+])
+def test_a_coarser_level_is_kept_only_when_clearly_stronger(strengths, level):
+    config = DetectorConfig(min_score=0.1, max_hand_px=180.0, coarser_margin=0.1)
+    found = FingertipDetector(LevelModel(640, strengths), config).detect(
+        np.zeros((480, 640, 3), np.uint8))       # 480 -> 240 -> 120: three levels
+    assert found.score.tolist() == [pytest.approx(strengths[level])]
+    # The peak at level-k pixel (12, 8) is full-resolution (12.5 * 2^k - 0.5, 8.5 * 2^k - 0.5).
+    np.testing.assert_allclose(found.uv_px, [[12.5 * 2 ** level - 0.5, 8.5 * 2 ** level - 0.5]])
+
+
+def test_hands_three_times_the_renders_size_are_found_on_a_coarser_level(detector):
+    single = FingertipDetector(detector.model, DetectorConfig(max_levels=1))
+    pyramid, full = DetectionTally(), DetectionTally()
+    for view in labelled_views(10, TEST_SEED):
+        big = cv2.resize(view.image, None, fx=3, fy=3, interpolation=cv2.INTER_LINEAR)
+        tips = (view.tips_uv + 0.5) * 3 - 0.5
+        pyramid.add(detector.detect(big), tips, view.tips_visible, radius_px=24.0)
+        full.add(single.detect(big), tips, view.tips_visible, radius_px=24.0)
+    assert pyramid.recall > 0.6 and pyramid.precision > 0.8
+    assert pyramid.recall > full.recall + 0.2
 
 
 def test_half_size_level_maps_back_to_full_resolution_pixels(detector):

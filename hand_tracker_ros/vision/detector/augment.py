@@ -49,10 +49,12 @@ with skin creases (:mod:`.creases`, ``crease_depth``), and each then goes throug
 
 Ranges are ours, chosen on principle rather than on any test image. Scale 0.4-1.8 (hands of
 about 27-280 px from the renders' 68-155 px, 5th-95th percentile of the bounding-box side at
-320 x 240) spans what one level of the detector's image pyramid (:mod:`.detector`, a level
-is added while the image's short side exceeds 300 px) can hold: small and distant hands at
-full resolution, and hands up to most of a 320 x 240 view. Hands under 40 px are negatives
-and 40-55 px ignored (step 7), because a 2-3 px finger is no longer a fingertip's shape.
+320 x 240) was meant to span what one level of the detector's image pyramid could hold
+when a level was added only while the image's short side exceeded 300 px: small and distant
+hands at full resolution, and hands up to most of a 320 x 240 view. One level proved
+reliable up to 180 px only, which the pyramid now uses (:mod:`.detector`). Hands under
+40 px are negatives and 40-55 px ignored (step 7), because a 2-3 px finger is no longer a
+fingertip's shape.
 The earlier ranges, 0.5-2 and 0.7-1.4 without size classes, and the runs since are in
 ``training.py``'s log. The dark tone is about the darkest of
 common skin-tone palettes; the lighting ranges are those of indoor webcams.

@@ -20,24 +20,35 @@ Per image (:class:`.model.DetectorModel` runs the network with ONNX Runtime, no 
 3. a peak at cell (i, j) is the detection :math:`(u, v) = 4\,(j + \delta_u, i + \delta_v)`
    with score :math:`p`; at most ``max_detections``, highest score first.
 
-Scale. The network finds hands up to about ``max_hand_px`` (bounding-box side; the renders
-it is trained on have hands of 68-155 px, 5th-95th percentile, at 320 x 240; the scale
-augmentation of :mod:`.augment` widens that to about 40-280 px, hands under 40 px being
-trained as negatives). A hand close to the camera can
-fill the image, so :meth:`FingertipDetector.detect` runs an image pyramid: level
-:math:`k` is the image shrunk by :math:`2^k` (area averaging), and levels are added while the
-previous one's short side exceeds ``max_hand_px`` (at most ``max_levels``). At 320 x 240 that
-is the one full-resolution level, as before; at 640 x 480 a second, half-size level (+25 %
-cost). 300 px was kept over 150 px on synthetic validation views (seed 1) enlarged 1-3x:
-150 px (two levels already at 320 x 240) lost about 0.1 precision at every size with the
-fine-tuned candidates. Detections of all levels are mapped back to full-resolution pixels,
-and one of a coarser level within two of its cells of a higher-scoring one is dropped (the
-same tip).
+Scale. One level of the network finds hands up to about ``max_hand_px`` (bounding-box
+side). The renders it is trained on have hands of 68-155 px (5th-95th percentile, at
+320 x 240), and the scale augmentation of :mod:`.augment` widens that to about 40-280 px,
+hands under 40 px being trained as negatives; but on the validation views (seed 1) enlarged
+1-3x and run at one level, recall stays at 0.79-0.82 only for hands up to 180 px (0.68 at
+180-210 px, 0.47 at 240-280 px), hence 180. A hand close to the camera can fill the image,
+so :meth:`FingertipDetector.detect` runs an image pyramid: level :math:`k` is the image
+shrunk by :math:`2^k` (area averaging), and levels are added while the previous one's
+short side exceeds ``max_hand_px`` (at most ``max_levels``): two levels at 320 x 240, three
+at 640 x 480. One level's detections are kept. Its *strength* is the sum of its
+``max_detections`` highest peaks of :math:`p` (:func:`level_strength`); going from fine to
+coarse, a level replaces the kept one when it is stronger by more than ``coarser_margin``
+(0.1): scale selection by the strongest response over scales (Lindeberg 1998), with a
+preference for the finer level. A hand at the size the network knows gives confident peaks,
+the same hand far larger or smaller weak ones.
+
+Chosen on the validation views at ``min_score`` 0.45, enlarged 1x, 1.5x, 2x, 2.5x and 3x
+(precision / recall): 0.909 / 0.811, 0.909 / 0.816, 0.909 / 0.827, 0.893 / 0.818,
+0.893 / 0.801. The detections of all levels merged instead (until 2026-11-27, with
+``max_hand_px`` 300) let a coarser level's false positives displace a finer level's tips:
+0.914 / 0.808, 0.894 / 0.832, 0.900 / 0.840, 0.892 / 0.822, 0.847 / 0.841. Without the
+margin, 0.897 / 0.812 at 1x; with 0.2, recall 0.795 and 0.768 at 2.5x and 3x. Detections
+are mapped back to full-resolution pixels.
 
 Region of interest. With ``roi_px`` (the tracker's box around its estimate,
-:mod:`hand_tracker_ros.tracking.roi`) only that box is searched, shrunk (if needed) so that
-its long side is at most ``max_hand_px``: the box holds the hand and a margin, so the hand
-lands in the trained range, and the cost is at most that of a ``max_hand_px``-square image.
+:mod:`hand_tracker_ros.tracking.roi`) only that box is searched, at one level, shrunk (if
+needed) so that its long side is at most ``roi_max_px``. The box is the hand grown by half
+its size on every side plus a margin, so 300 px leaves a shrunk hand under about 130 px,
+in the range one level finds, at most at the cost of a 300 px-square image.
 
 References: docs/references.md.
 """
@@ -70,11 +81,17 @@ class DetectorConfig:
     max_detections: int = param(5, 'keep at most this many detections (highest scores); 5 '
                                 'per hand in view', low=0, high=100)
     threads: int = param(1, 'ONNX Runtime threads per detector', low=1, high=64)
-    max_hand_px: float = param(300.0, 'largest hand (bounding-box side) one pyramid level '
+    max_hand_px: float = param(180.0, 'largest hand (bounding-box side) one pyramid level '
                                'finds; coarser levels are added while the image is larger',
                                unit='px', low=16.0, high=10000.0)
     max_levels: int = param(3, 'most pyramid levels (octaves); 1: full resolution only',
                             low=1, high=8)
+    roi_max_px: float = param(300.0, 'a region of interest is shrunk to at most this long '
+                              'side (it holds the hand and the tracker\'s margin)', unit='px',
+                              low=16.0, high=10000.0)
+    coarser_margin: float = param(0.1, 'a coarser pyramid level replaces the kept one when its '
+                                  'strength is larger by more than this fraction', low=0.0,
+                                  high=10.0)
 
 
 def find_peaks(maps: Float32Array, min_score: float, max_peaks: int
@@ -113,32 +130,10 @@ def pyramid_levels(shape_hw: tuple[int, ...], max_hand_px: float, max_levels: in
     return levels
 
 
-def merge_levels(found: list[tuple[FloatArray, FloatArray, float]], max_detections: int
-                 ) -> SalientDetections:
-    """One set of detections from the pyramid levels' (module docstring).
-
-    Parameters
-    ----------
-    found : list of (uv_px (N, 2) float64, score (N,) float64, cell_px float)
-        Per level, finest first: detections in full-image pixels and the level's cell size.
-    max_detections : int
-
-    Returns
-    -------
-    SalientDetections
-        Highest score first; a detection within two cells (of the coarser of the two
-        levels) of a kept, higher-scoring one is dropped.
-    """
-    uv = np.concatenate([f[0] for f in found]).reshape(-1, 2)
-    score = np.concatenate([f[1] for f in found])
-    cell = np.concatenate([np.full(f[1].size, f[2]) for f in found])
-    keep: list[int] = []
-    for i in np.argsort(-score, kind='stable'):
-        if len(keep) == max_detections:
-            break
-        if all(np.hypot(*(uv[i] - uv[j])) > 2.0 * max(cell[i], cell[j]) for j in keep):
-            keep.append(int(i))
-    return SalientDetections(uv[keep], score[keep])
+def level_strength(maps: Float32Array, max_peaks: int) -> float:
+    """Sum of the ``max_peaks`` highest peak probabilities of one level's maps (3, h, w): the
+    response whose largest level :meth:`FingertipDetector.detect` keeps (module docstring)."""
+    return float(find_peaks(maps, 0.0, max_peaks)[1].sum())
 
 
 class FingertipDetector:
@@ -191,20 +186,27 @@ class FingertipDetector:
         if roi_px is not None:
             return self._detect_in_roi(image_rgb, roi_px)
         cfg = self.config
-        levels = pyramid_levels(image_rgb.shape[:2], cfg.max_hand_px, cfg.max_levels)
-        uv, score = find_peaks(self.maps(image_rgb), cfg.min_score, cfg.max_detections)
-        if levels == 1:
-            return SalientDetections(uv, score)
-        found: list[tuple[FloatArray, FloatArray, float]] = [(uv, score, STRIDE)]
+        levels = [self._level(image_rgb, k) for k in
+                  range(pyramid_levels(image_rgb.shape[:2], cfg.max_hand_px, cfg.max_levels))]
+        strength, maps, factor = levels[0]
+        for coarser in levels[1:]:
+            if coarser[0] > (1.0 + cfg.coarser_margin) * strength:
+                strength, maps, factor = coarser
+        uv, score = find_peaks(maps, cfg.min_score, cfg.max_detections)
+        # Pixel centres are integers at every level: u_full + 0.5 = f (u_small + 0.5).
+        return SalientDetections((uv + 0.5) * factor - 0.5, score)
+
+    def _level(self, image_rgb: UInt8Array, k: int
+               ) -> tuple[float, Float32Array, FloatArray]:
+        """Pyramid level ``k`` of an image: its :func:`level_strength`, maps (3, h, w) and
+        the factor (2,) from its pixels to full-resolution ones."""
         height, width = image_rgb.shape[:2]
-        for k in range(1, levels):
-            size = (-(-width // 2 ** k), -(-height // 2 ** k))
-            small = cv2.resize(image_rgb, size, interpolation=cv2.INTER_AREA)
-            uv, score = find_peaks(self.model.maps(small), cfg.min_score, cfg.max_detections)
-            factor = np.array([width / size[0], height / size[1]])
-            # Pixel centres are integers at every level: u_full + 0.5 = f (u_small + 0.5).
-            found.append(((uv + 0.5) * factor - 0.5, score, STRIDE * float(factor.max())))
-        return merge_levels(found, cfg.max_detections)
+        size = (-(-width // 2 ** k), -(-height // 2 ** k))
+        level = image_rgb if k == 0 else cv2.resize(image_rgb, size,
+                                                    interpolation=cv2.INTER_AREA)
+        maps = self.model.maps(np.ascontiguousarray(level))
+        return (level_strength(maps, self.config.max_detections), maps,
+                np.array([width / size[0], height / size[1]]))
 
     def _detect_in_roi(self, image_rgb: UInt8Array, roi_px: Box) -> SalientDetections:
         """Detections in the box ``roi_px`` (module docstring), in full-image pixels."""
@@ -214,7 +216,7 @@ class FingertipDetector:
         if u1 - u0 < STRIDE or v1 - v0 < STRIDE:
             return SalientDetections.empty()
         crop = image_rgb[v0:v1, u0:u1]
-        shrink = min(1.0, self.config.max_hand_px / max(u1 - u0, v1 - v0))
+        shrink = min(1.0, self.config.roi_max_px / max(u1 - u0, v1 - v0))
         size = (max(round((u1 - u0) * shrink), 1), max(round((v1 - v0) * shrink), 1))
         if shrink < 1.0:
             crop = cv2.resize(crop, size, interpolation=cv2.INTER_AREA)

@@ -146,15 +146,27 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
     latency median was higher in every pair, by 4-14 ms (54 against 49, 48 / 40, 56 / 49,
     57 / 53, 59 / 55, 61 / 47 ms), and three random bags lost 0.2-0.3 mm: not shipped, as
     the live rate comes first and the photos' bar is not met either way;
-  - inference on seed 1, not kept: each network input padded by 8-32 px of the image's
-    median colour, so that a tip at the image border has surroundings (views cropped so
-    that one tip lies 2-8 px inside the edge its finger points to: recall of those tips
-    0.74 -> 0.86, but precision 0.854 -> 0.835 on the cropped views: a finger cut by the
-    border then looks like its end); per image only the pyramid level whose five highest
-    peaks sum highest (scale selection: 0.874 / 0.840, 0.867 / 0.847 and 0.872 / 0.844 at
-    1x, 2x and 3x, against 0.885 / 0.838 and 0.858 / 0.868 of the pyramid at 1x and 2x).
-    On the photos (seen while trying these, so a test-set figure, not a choice) padding
-    8 px with ``max_hand_px`` 150 finds 4, 4, 4, 5: both cost precision on the renders.
+  - inference on seed 1: each network input padded by 8-32 px of the image's median
+    colour, so that a tip at the image border has surroundings (views cropped so that one
+    tip lies 2-8 px inside the edge its finger points to: recall of those tips 0.74 ->
+    0.86, but precision 0.854 -> 0.835 on the cropped views: a finger cut by the border then
+    looks like its end), not kept. Recall by hand size at one level (views enlarged 1-3x,
+    0.45): 0.79-0.82 up to 180 px, 0.68 at 180-210, 0.60 at 210-240, 0.47 at 240-280 px, so
+    the pyramid's one-level limit of 300 px was too high. Kept (:mod:`.detector`):
+    ``max_hand_px`` 180 and, instead of merging the levels' detections, the level whose five
+    highest peaks sum highest, a coarser one only when 10 % stronger: at 0.45 and 1x-3x
+    0.909 / 0.811, 0.909 / 0.816, 0.909 / 0.827, 0.893 / 0.818, 0.893 / 0.801, against
+    0.914 / 0.808, 0.894 / 0.832, 0.900 / 0.840, 0.892 / 0.822, 0.847 / 0.841 for the
+    merged pyramid at 300 (bench 0.943 / 0.845, 0.936 / 0.855 at 2x, 0.933 / 0.876 at 3x,
+    against 0.946 / 0.841, 0.927 / 0.890, 0.896 / 0.886); 1.96 against 1.42 ms per
+    320 x 240 image (its second level). Real 15 / 20 (4, 4, 2, 5) against 10. The regions of
+    interest the tracker searches keep their 300 px limit (``roi_max_px``): shrunk to 180,
+    the tracker's live latency rose in three of four pairs. Tracking offline, mean of 7
+    bags, against the merged pyramid: 2901-2907 2.48 / 2.41 mm, 2801-2807 2.56 / 2.98 (fist
+    2806 6.41 / 9.60), 2701-2707 2.34 / 2.36; live as fast and as accurate (composed, 4
+    pairs, latency medians 59, 62, 52, 60 against 57, 62, 57, 58 ms). On the photos (seen
+    while trying these, so a test-set figure, not a choice) padding 8 px with the merged
+    pyramid at 150 finds 4, 4, 4, 5; padding costs precision on the renders.
 """
 from __future__ import annotations
 
