@@ -131,8 +131,9 @@ def pyramid_levels(shape_hw: tuple[int, ...], max_hand_px: float, max_levels: in
 
 
 def level_strength(maps: Float32Array, max_peaks: int) -> float:
-    """Sum of the ``max_peaks`` highest peak probabilities of one level's maps (3, h, w): the
-    response whose largest level :meth:`FingertipDetector.detect` keeps (module docstring)."""
+    """Strength of one pyramid level: the sum of the ``max_peaks`` highest peak
+    probabilities of its maps (3, h, w), by which :meth:`FingertipDetector.detect` chooses
+    the level it keeps (module docstring)."""
     return float(find_peaks(maps, 0.0, max_peaks)[1].sum())
 
 
