@@ -3,7 +3,7 @@
 The photos and their hand-labelled tips are test/fixtures/real_hands (tips.yaml says where
 the photos come from). Each photo is detected as it is, at the detector's default settings
 (the image pyramid of ``vision/detector/detector.py``), and once more with the pyramid off
-(``--levels 1`` is the detector before the pyramid). A labelled tip counts as found when a
+(``max_levels`` 1, the detector before the pyramid). A labelled tip counts as found when a
 detection (at most ``max_detections`` = 5, score >= ``min_score``) lies within 12 px of it;
 other detections are false positives (FP). Nothing here was tuned on these photos.
 

@@ -69,11 +69,12 @@ def test_evaluation_runs_on_every_photo(photos, detector):
 
 
 def test_the_shipped_model_finds_tips_on_real_photos(photos, detector):
-    """A floor, not the bar of 4 of 5 per photo: the shipped model finds 10 of the 20 tips
-    (bench/bench_real_hands.py), a model trained without the augmentation of
-    vision/detector/augment.py none."""
+    """A floor, not the bar of 4 of 5 per photo: the shipped detector finds 15 of the 20 tips
+    (bench/bench_real_hands.py), the same model with the levels of the pyramid merged (until
+    2026-11-27) 10, a model trained without the augmentation of vision/detector/augment.py
+    none."""
     found = sum(score_photo(photo, detector.detect(photo.image)).found for photo in photos)
-    assert found >= 8
+    assert found >= 13
 
 
 def test_pyramid_adds_octaves_while_the_image_exceeds_the_largest_hand():
@@ -132,8 +133,9 @@ def test_hands_three_times_the_renders_size_are_found_on_a_coarser_level(detecto
     assert pyramid.recall > full.recall + 0.2
 
 
-def test_half_size_level_maps_back_to_full_resolution_pixels(detector):
-    # Doubled by pixel repetition, area-halved back: level 1 sees exactly the original view.
+def test_a_view_doubled_gives_its_tips_at_doubled_pixels(detector):
+    # Doubled by pixel repetition: whichever level is kept (level 1 would see exactly the
+    # original view), the tips come back in the doubled view's pixels.
     view = next(labelled_views(1, TEST_SEED))
     single = FingertipDetector(detector.model, DetectorConfig(max_levels=1))
     small = single.detect(view.image)

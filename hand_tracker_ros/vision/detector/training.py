@@ -158,7 +158,7 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
     0.909 / 0.811, 0.909 / 0.816, 0.909 / 0.827, 0.893 / 0.818, 0.893 / 0.801, against
     0.914 / 0.808, 0.894 / 0.832, 0.900 / 0.840, 0.892 / 0.822, 0.847 / 0.841 for the
     merged pyramid at 300 (bench 0.943 / 0.845, 0.936 / 0.855 at 2x, 0.933 / 0.876 at 3x,
-    against 0.946 / 0.841, 0.927 / 0.890, 0.896 / 0.886); 1.96 against 1.42 ms per
+    against 0.946 / 0.841, 0.927 / 0.890, 0.896 / 0.886); 1.9-2.0 against 1.4-1.5 ms per
     320 x 240 image (its second level). Real 15 / 20 (4, 4, 2, 5) against 10. The regions of
     interest the tracker searches keep their 300 px limit (``roi_max_px``): shrunk to 180,
     the tracker's live latency rose in three of four pairs. Tracking offline, mean of 7
