@@ -6,11 +6,13 @@ saw. A detection is a true positive within 8 px of an unmatched visible tip; det
 only invisible tips count as neither (see ``vision/detector/evaluation.py``).
 
 Usage: python bench/bench_detector.py [--views N] [--model PATH] [--sweep] [--seed S]
-    [--upscale F] [--max-hand-px PX]
+    [--upscale F] [--max-hand-px PX] [--edge-crops]
 (``--sweep`` also prints precision/recall at other ``min_score`` values; ``--upscale F``
 enlarges each view F times (bilinear), its tips and the 8 px radius with it: hands F times
 the synthetic size, as close to the camera or at a higher resolution; ``--seed 1`` gives the
-validation views the detector settings were chosen on.)
+validation views the detector settings were chosen on; ``--edge-crops`` cuts each view so
+that one visible tip lies 2-8 px inside the image edge its finger points to, and also prints
+the recall of those tips: a hand at the end of the image.)
 """
 from __future__ import annotations
 
@@ -39,6 +41,36 @@ def upscaled(view: LabelledView, factor: float) -> LabelledView:
     return LabelledView(image, mask, (view.tips_uv + 0.5) * factor - 0.5, view.tips_visible)
 
 
+def edge_cropped(view: LabelledView, rng: np.random.Generator
+                 ) -> tuple[LabelledView, int] | None:
+    """``view`` cut so that a visible tip drawn from ``rng`` lies 2-8 px inside the image
+    edge its finger points to (the side it is farthest from the hand's centroid towards),
+    and that tip's index; None when no tip is visible or the cut leaves under 64 px."""
+    visible = np.flatnonzero(view.tips_visible)
+    if visible.size == 0:
+        return None
+    k = int(rng.choice(visible))
+    tip = view.tips_uv[k]
+    rows, cols = np.nonzero(view.hand_mask)
+    du, dv = tip - (cols.mean(), rows.mean())
+    gap = rng.uniform(2.0, 8.0)
+    height, width = view.image.shape[:2]
+    box = [0, 0, width, height]                         # u0, v0, u1, v1
+    axis = 0 if abs(du) > abs(dv) else 1
+    if (du, dv)[axis] > 0:
+        box[2 + axis] = min(int(round(tip[axis] + gap)) + 1, box[2 + axis])
+    else:
+        box[axis] = max(int(round(tip[axis] - gap)), 0)
+    u0, v0, u1, v1 = box
+    if u1 - u0 < 64 or v1 - v0 < 64:
+        return None
+    uv = view.tips_uv - (u0, v0)
+    with np.errstate(invalid='ignore'):
+        inside = np.all((uv >= 0.0) & (uv <= (u1 - u0 - 1, v1 - v0 - 1)), axis=1)
+    return LabelledView(np.ascontiguousarray(view.image[v0:v1, u0:u1]),
+                        view.hand_mask[v0:v1, u0:u1], uv, view.tips_visible & inside), k
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument('--views', type=int, default=300)
@@ -47,25 +79,38 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=HELD_OUT_SEED)
     parser.add_argument('--upscale', type=float, default=1.0)
     parser.add_argument('--max-hand-px', type=float, default=DetectorConfig().max_hand_px)
+    parser.add_argument('--edge-crops', action='store_true')
     args = parser.parse_args()
     base = dataclasses.replace(DetectorConfig(), max_hand_px=args.max_hand_px)
     detector = FingertipDetector.load(args.model, base)
     views = [upscaled(view, args.upscale) for view in labelled_views(args.views, args.seed)]
+    edge_tips: list[int] = []      # with --edge-crops: the index of each view's tip at the edge
+    if args.edge_crops:
+        rng = np.random.default_rng(args.seed)
+        kept = [cut for cut in (edge_cropped(view, rng) for view in views) if cut is not None]
+        views, edge_tips = [view for view, _ in kept], [k for _, k in kept]
     radius_px = 8.0 * args.upscale
     detector.detect(views[0].image)  # warm-up: ONNX Runtime allocates its buffers
-    tally, times = DetectionTally(), []
-    for view in views:
+    tally, edge, times = DetectionTally(), DetectionTally(), []
+    for i, view in enumerate(views):
         start = time.perf_counter()
         detections = detector.detect(view.image)
         times.append(time.perf_counter() - start)
         tally.add(detections, view.tips_uv, view.tips_visible, radius_px=radius_px)
+        if edge_tips:
+            edge.add(detections, view.tips_uv, np.arange(5) == edge_tips[i],
+                     radius_px=radius_px)
     p50, p90 = tally.error_percentiles((50.0, 90.0))
     height, width = views[0].image.shape[:2]
-    print(f'views of seed {args.seed}: {len(views)} ({width}x{height}), visible tips: '
+    size = 'cut at a tip' if edge_tips else f'{width}x{height}'
+    print(f'views of seed {args.seed}: {len(views)} ({size}), visible tips: '
           f'{tally.visible_tips}')
     print(f'precision {tally.precision:.3f} (TP {tally.true_positives}, '
           f'FP {tally.false_positives}, near invisible tips {tally.ignored})')
     print(f'recall    {tally.recall:.3f}')
+    if edge_tips:
+        print(f'recall of the tips at the image edge {edge.recall:.3f} '
+              f'({edge.visible_tips} tips)')
     print(f'localisation error of TPs: median {p50:.2f} px, 90th percentile {p90:.2f} px')
     ms = [1e3 * t for t in times]
     print(f'detector: median {statistics.median(ms):.2f} ms/frame, min {min(ms):.2f}, '
