@@ -189,7 +189,7 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
     (:math:`c` = 0.3: 0.850 / 0.732; gray 0.768 / 0.385). Trained with it (45 min): seed 1
     0.893 / 0.794, desaturated to 0.3 0.888 / 0.779, gray 0.783 / 0.544; real 10 / 20
     (2, 4, 0, 4). More robust to desaturation on the renders, worse on the photos and on
-    seed 1: not kept. Neither run, nor the texture's, closes the gap on
+    seed 1: not kept. None of these closes the gap on
     ``Back_Projection_Theory0.jpg``, where the shipped model's peaks at the middle and
     little fingers' tips are 0.35 and 0.37, under ``min_score``.
 """
