@@ -8,6 +8,7 @@ import pytest
 
 from hand_tracker_ros.config import validate
 from hand_tracker_ros.errors import ConfigError, ImageFormatError
+from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.detector.data import labelled_views
 from hand_tracker_ros.vision.detector.detector import DetectorConfig, FingertipDetector, find_peaks
 from hand_tracker_ros.vision.detector.evaluation import DetectionTally
@@ -102,3 +103,17 @@ def test_detection_does_not_import_torch():
             'from hand_tracker_ros.vision.detector.detector import FingertipDetector; '
             'FingertipDetector.load().detect(np.zeros((240, 320, 3), np.uint8))')
     subprocess.run([sys.executable, '-c', code], check=True)
+
+
+def test_tally_matches_by_score_and_returns_the_tips_found():
+    tips = np.array([[10.0, 10.0], [20.0, 10.0], [50.0, 50.0], [80.0, 80.0], [np.nan, np.nan]])
+    visible = np.array([True, True, True, False, False])
+    # The stronger detection takes tip 1 (nearest); the weaker one, 7 px from tip 0 and
+    # 3 px from the taken tip 1, takes tip 0; one lies near the invisible tip 3, one nowhere.
+    detections = SalientDetections(np.array([[19.0, 10.0], [17.0, 10.0], [81.0, 80.0],
+                                             [120.0, 5.0]]), np.array([0.9, 0.8, 0.7, 0.6]))
+    tally = DetectionTally()
+    found = tally.add(detections, tips, visible)
+    np.testing.assert_array_equal(found, [True, True, False, False, False])
+    assert (tally.true_positives, tally.false_positives, tally.ignored) == (2, 1, 1)
+    assert tally.recall == pytest.approx(2 / 3)

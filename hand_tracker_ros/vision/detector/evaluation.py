@@ -42,7 +42,7 @@ class DetectionTally:
         return self.true_positives / self.visible_tips if self.visible_tips else 1.0
 
     def add(self, detections: SalientDetections, tips_uv: FloatArray,
-            tips_visible: BoolArray, radius_px: float = 8.0) -> None:
+            tips_visible: BoolArray, radius_px: float = 8.0) -> BoolArray:
         """Match one view's detections (see the module docstring) and count.
 
         Parameters
@@ -52,6 +52,11 @@ class DetectionTally:
             Ground-truth tip projections (NaN allowed for invisible tips).
         tips_visible : (5,) bool
         radius_px : float
+
+        Returns
+        -------
+        found : (5,) bool
+            The visible tips a detection was matched to.
         """
         tips = np.nan_to_num(np.asarray(tips_uv, dtype=np.float64), nan=-1e9)
         visible = np.asarray(tips_visible, dtype=bool)
@@ -69,6 +74,7 @@ class DetectionTally:
                 self.ignored += 1
             else:
                 self.false_positives += 1
+        return visible & ~free
 
     def error_percentiles(self, qs: Iterable[float] = (50.0, 90.0)) -> FloatArray:
         """Percentiles of the localisation error of the true positives (px)."""
