@@ -4,8 +4,10 @@ Needs PyTorch and ONNX (requirements/train.txt), which the default install leave
 them the command prints the exact pip command, or runs it with ``--install``
 (``HT_TRAIN=1 bash tools/setup.sh`` installs them too). The same seed and options give the same
 model file, byte for byte, on the same machine. The shipped model
-(hand_tracker_ros/vision/models/fingertip_cnn.onnx) was trained with the options of
-``train-detector --seed 0`` (the defaults, 2 threads).
+(hand_tracker_ros/vision/models/fingertip_cnn.onnx) was trained in two steps:
+``train-detector --seed 0 --out base.onnx`` (the defaults, 2 threads), then
+``train-detector --seed 0 --init base.onnx --epochs 15 --lr 1e-3 --threads 1`` (the
+fine-tune of ``vision/detector/training.py``'s log, fourteenth session).
 """
 from __future__ import annotations
 

@@ -37,15 +37,15 @@ preference for the finer level. A hand at the size the network knows gives confi
 the same hand far larger or smaller weak ones.
 
 Chosen on the validation views at ``min_score`` 0.45, enlarged 1x, 1.5x, 2x, 2.5x and 3x
-(precision / recall): 0.909 / 0.811, 0.909 / 0.816, 0.909 / 0.827, 0.893 / 0.818,
-0.893 / 0.801. The detections of all levels merged instead (until 2026-11-27, with
-``max_hand_px`` 300) let a coarser level's false positives displace a finer level's tips:
-0.914 / 0.808, 0.894 / 0.832, 0.900 / 0.840, 0.892 / 0.822, 0.847 / 0.841. Without the
-margin, 0.897 / 0.812, 0.910 / 0.821, 0.900 / 0.821, 0.895 / 0.826, 0.898 / 0.814: better
-at 1.5x, 2.5x and 3x, but below precision 0.9 at 1x, the working resolution; with 0.2,
-recall 0.795 and 0.768 at 2.5x and 3x. Detections are mapped back to full-resolution
-pixels. One level per image serves one hand size: two hands at very different distances
-are not both at their best level.
+(precision / recall, with the twelfth session's model of ``training.py``'s log): 0.909 /
+0.811, 0.909 / 0.816, 0.909 / 0.827, 0.893 / 0.818, 0.893 / 0.801. The detections of all
+levels merged instead (until 2026-11-27, with ``max_hand_px`` 300) let a coarser level's
+false positives displace a finer level's tips: 0.914 / 0.808, 0.894 / 0.832, 0.900 / 0.840,
+0.892 / 0.822, 0.847 / 0.841. Without the margin, 0.897 / 0.812, 0.910 / 0.821, 0.900 /
+0.821, 0.895 / 0.826, 0.898 / 0.814: better at 1.5x, 2.5x and 3x, but below precision 0.9 at
+1x, the working resolution; with 0.2, recall 0.795 and 0.768 at 2.5x and 3x. Detections are
+mapped back to full-resolution pixels. One level per image serves one hand size: two hands
+at very different distances are not both at their best level.
 
 Region of interest. With ``roi_px`` (the tracker's box around its estimate,
 :mod:`hand_tracker_ros.tracking.roi`) only that box is searched, at one level, shrunk (if
