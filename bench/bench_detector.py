@@ -1,9 +1,10 @@
 """Fingertip detector on held-out synthetic views: precision, recall, localisation, time.
 
 Held-out views come from ``labelled_views(seed=HELD_OUT_SEED)``: poses, rigs, backgrounds,
-lighting and noise drawn from a seed the shipped model (``train-detector --seed 0``) never
-saw. A detection is a true positive within 8 px of an unmatched visible tip; detections near
-only invisible tips count as neither (see ``vision/detector/evaluation.py``).
+lighting and noise drawn from a seed the shipped model (trained on seed 0, both steps of
+``cli/train_detector.py``'s recipe) never saw. A detection is a true positive within 8 px of
+an unmatched visible tip; detections near only invisible tips count as neither (see
+``vision/detector/evaluation.py``).
 
 Usage: python bench/bench_detector.py [--views N] [--model PATH] [--sweep] [--seed S]
     [--upscale F] [--max-hand-px PX] [--edge-crops]
