@@ -226,6 +226,13 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
     against 2.35 and 2.32 (3111 4.54 against 2.91 and 2.94); live (against the model before)
     distributed fist 3106 10.51 / 6.77 and 6.74 / 4.76 mm, composed fist 2906 6.75 / 4.64;
     means of 3101-3107 2.91 / 2.38, 3001-3007 2.02 / 2.91, 2901-2907 2.57 / 2.48. Not kept.
+  - hands of other proportions in the renders (per scene, from a generator of its own:
+    palm length and width and every finger segment times U(0.92, 1.08), ``radius_scale``
+    U(0.85, 1.15), scale U(0.9, 1.1)), the same fine-tune on 2 threads (15 min): seed 1
+    0.916 / 0.809, bench 0.936 / 0.843, cut views of seed 1 0.895 / 0.755, edge 0.720;
+    real 15 / 20 (5, 4, 1, 5; peaks at the middle, little and thumb tips of
+    ``Back_Projection_Theory0.jpg`` 0.34, 0.30, 0.13); offline 3101-3107 mean 2.46 mm
+    (the plain fine-tune 2.29). Below the plain fine-tune on seed 1: not kept.
   Fist 3106 is bistable live whatever the model: five runs of the model before these gave
   4.76-8.06 mm, never LOST.
 """
