@@ -193,9 +193,9 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
     seed 1: not kept. None of these closes the gap on
     ``Back_Projection_Theory0.jpg``, where the shipped model's peaks at the middle and
     little fingers' tips are 0.35 and 0.37, under ``min_score``.
-- fourteenth session (2026-11-27), the same measures; two fine-tunes of the shipped model
-  side by side (15 epochs, peak lr 1e-3, 1 thread each, 17 min), one without and one with a
-  change, so that the change is told from the fine-tuning:
+- fourteenth session (2026-11-27), the same measures; fine-tunes of the shipped model (15
+  epochs, peak lr 1e-3; the first two side by side on 1 thread each, 17 min), one without a
+  change and two with one, so that each change is told from the fine-tuning:
   - without a change (``train-detector --seed 0 --init <the model> --epochs 15 --lr 1e-3
     --threads 1``; the shipped model since): seed 1 0.920 / 0.817 at 0.45 (0.874 / 0.841 at
     0.4, 0.941 / 0.784 at 0.5; the model before it 0.909 / 0.811), enlarged 2x 0.904 / 0.823
