@@ -2,11 +2,12 @@
 
 For every (shape, motion, seed) this renders a 90-frame 4-camera bag of that hand
 (``hand-tracker synth --shape``), runs ``hand-tracker calibrate`` (timed) and tracks the bag
-with the true, the calibrated and the default shape, and prints one markdown row: fitted scale,
-segment, palm and thickness errors, the three mean 3D joint errors, the true and calibrated
-shape's errors once more when tracking starts from the true first pose (``track --init
-ground-truth``: without the automatic start's choice of basin, the difference is the shape's)
-and the calibrate time.
+with the true, the calibrated and the default shape (``--fixed-scale``), and with the default
+shape whose scale the session follows (the default of ``track``), and prints one markdown row:
+fitted scale, segment, palm and thickness errors, the four mean 3D joint errors, the true and
+calibrated shape's errors once more when tracking starts from the true first pose (``track
+--init ground-truth``: without the automatic start's choice of basin, the difference is the
+shape's) and the calibrate time.
 
 Usage: python bench/calibrate_shapes.py OUT_DIR [--cases small:grasp:51 ...]
 (shapes: small = 0.9x, large = 1.1x, longfingers = every segment 8 % longer, default).
@@ -68,18 +69,21 @@ def run_case(root: Path, case: str) -> str:
     palm = [1e3 * (fit.scale * getattr(fit, f) - true.scale * getattr(true, f))
             for f in ('palm_length_m', 'palm_width_m')]
     thick = fit.scale * fit.radius_scale / (true.scale * true.radius_scale) - 1.0
-    errors = [_track_error(seq / 'bag', seq / 'est-default'),
-              _track_error(seq / 'bag', seq / 'est-true', '--shape', str(seq / 'shape.yaml')),
+    errors = [_track_error(seq / 'bag', seq / 'est-default', '--fixed-scale'),
+              _track_error(seq / 'bag', seq / 'est-followed'),
+              _track_error(seq / 'bag', seq / 'est-true', '--shape', str(seq / 'shape.yaml'),
+                           '--fixed-scale'),
               _track_error(seq / 'bag', seq / 'est-cal', '--shape',
-                           str(seq / 'calibrated.yaml'))]
+                           str(seq / 'calibrated.yaml'), '--fixed-scale')]
     from_truth = [_track_error(seq / 'bag', seq / f'est-{which}-from-truth', '--shape',
-                               str(seq / f'{which}.yaml'), '--init', 'ground-truth')
+                               str(seq / f'{which}.yaml'), '--init', 'ground-truth',
+                               '--fixed-scale')
                   for which in ('shape', 'calibrated')]
     scale_error = 100 * (fit.scale / true.scale - 1)
     return (f'| {name} ({motion}, {seed}) | {fit.scale:.3f} ({scale_error:+.1f} %) '
             f'| {seg.max():.1f} / {seg.mean():.1f} | {palm[0]:+.1f} / {palm[1]:+.1f} '
-            f'| {100 * thick:+.1f} % | {errors[0]:.2f} / {errors[1]:.2f} / {errors[2]:.2f} '
-            f'| {errors[2] - errors[1]:+.2f} | {from_truth[0]:.2f} / {from_truth[1]:.2f} '
+            f'| {100 * thick:+.1f} % | {" / ".join(f"{e:.2f}" for e in errors)} '
+            f'| {errors[3] - errors[2]:+.2f} | {from_truth[0]:.2f} / {from_truth[1]:.2f} '
             f'({from_truth[1] - from_truth[0]:+.2f}) | {seconds:.0f} s |')
 
 
@@ -91,8 +95,9 @@ def main() -> None:
     logging.basicConfig(level=logging.WARNING)   # before the CLI's INFO default
     args.out.mkdir(parents=True, exist_ok=True)
     print('| bag (motion, seed) | fitted scale (error) | segment error max / mean (mm) | palm '
-          'length / width error (mm) | thickness error | mean 3D joint error: default / true / '
-          'calibrated shape (mm) | calibrated - true (mm) | from the true first pose: true / '
+          'length / width error (mm) | thickness error | mean 3D joint error: default / '
+          'default, scale followed / true / calibrated shape (mm) | calibrated - true (mm) | '
+          'from the true first pose: true / '
           'calibrated (difference) (mm) | calibrate |')
     print('|---|---|---|---|---|---|---|---|---|')
     for case in args.cases:

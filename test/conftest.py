@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 
+import numpy as np
 import pytest
 
 # Each pytest session gets its own DDS domain so that concurrent runs on one machine (other
@@ -29,3 +31,17 @@ def hand_model():
     from hand_tracker_ros.model.hand import HandModel
 
     return HandModel.build()
+
+
+@pytest.fixture
+def numeric_jacobian() -> Callable[..., np.ndarray]:
+    """Central-difference Jacobian (..., P) of ``fn(theta) -> (...)``: the test oracle."""
+    def jac(fn: Callable[[np.ndarray], np.ndarray], theta: np.ndarray,
+            step: float = 1e-6) -> np.ndarray:
+        cols = []
+        for k in range(theta.size):
+            e = np.zeros_like(theta)
+            e[k] = step
+            cols.append((fn(theta + e) - fn(theta - e)) / (2.0 * step))
+        return np.stack(cols, axis=-1)
+    return jac

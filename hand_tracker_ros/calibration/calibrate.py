@@ -9,7 +9,8 @@ Each of ``passes`` passes:
    default session would refit or search for it again in every frame (measured on a 1.1x
    hand: every frame LOST, 90 s for 90 frames). Later passes track the shape fitted so far
    with the tracker's own policy (``refine_pipeline``): without recovery, a grasp tracked
-   with a nearly right shape drifted from 5 to 25 mm within 24 frames.
+   with a nearly right shape drifted from 5 to 25 mm within 24 frames. Neither follows the
+   hand's scale online (``session.scale``): the passes track the shape they are given.
 2. Pick ``frames`` well-spread frames among the ``candidates`` share of the most confident
    ones: farthest-point sampling on the joint angles and the global rotation, from the most
    confident frame (:func:`select_frames`).
@@ -58,15 +59,23 @@ from hand_tracker_ros.model.shape import SHAPE_NAMES, HandShape
 from hand_tracker_ros.pipeline.frames import frame_sets, load_rig, rig_file
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.pipeline.track_bag import track_bag
+from hand_tracker_ros.tracking.scale import ScaleConfig
 from hand_tracker_ros.tracking.session import FailureConfig, SessionConfig
 
 LOG = logging.getLogger(__name__)
 
 
 def _trusting_pipeline() -> PipelineConfig:
-    """The first pass's pipeline: no recovery refits, no frame LOST (step 1)."""
+    """The first pass's pipeline: no recovery refits, no frame LOST, the start shape kept
+    (step 1)."""
     return PipelineConfig(session=SessionConfig(recovery=False,
-                                                failure=FailureConfig(lost_below=0.0)))
+                                                failure=FailureConfig(lost_below=0.0),
+                                                scale=ScaleConfig(enabled=False)))
+
+
+def _refining_pipeline() -> PipelineConfig:
+    """The later passes' pipeline: the tracker's policy with the shape fitted so far kept."""
+    return PipelineConfig(session=SessionConfig(scale=ScaleConfig(enabled=False)))
 
 
 @dataclass(frozen=True)
@@ -89,7 +98,7 @@ class CalibrationConfig:
                                      'exceeds this', low=0.0, high=10.0)
     solver: SolverConfig = nested(SolverConfig)
     pipeline: PipelineConfig = nested(_trusting_pipeline)
-    refine_pipeline: PipelineConfig = nested(PipelineConfig)
+    refine_pipeline: PipelineConfig = nested(_refining_pipeline)
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,15 +1,17 @@
 r"""One calibration frame: the tracker's image terms as functions of pose *and* shape.
 
-For frame ``k`` with fixed correspondences, the image terms (edges, silhouette, salient
-points; their configs and weights are the tracker's) give residuals of the posed hand.
+For frame ``k`` with fixed correspondences, the image terms that see the hand's size
+(``SIZE_TERMS`` of the registry: edges, silhouette, salient points; their configs and weights
+are the tracker's) give residuals of the posed hand.
 Here the hand is posed at ``theta_k`` with the shape ``x`` of
 :mod:`hand_tracker_ros.model.shape_jacobian`,
 ``X(theta_k, x) = X_LBS(theta_k; x0) + D(theta_k, x)``, and every term is linearized against
 the stacked parameters ``z_k = [theta_k; x]`` (P + S): the terms only read
 ``posed.vertices_m``, the rows ``posed.vertices_jac[ids]`` and ``size(posed.theta)``, so a
-:class:`ShapedPose` whose vertex Jacobian has the ``P + S`` columns
-``[dX_LBS/dtheta + dD/dtheta, dD/dx]`` makes each term's analytic Jacobian the one with
-respect to ``z_k`` by the chain rule (the test checks it against central differences).
+:class:`~hand_tracker_ros.core.shaped_pose.ShapedPose` whose vertex Jacobian has the
+``P + S`` columns ``[dX_LBS/dtheta + dD/dtheta, dD/dx]`` makes each term's analytic Jacobian
+the one with respect to ``z_k`` by the chain rule (the test checks it against central
+differences).
 
 Correspondences are found on the model built at ``x0`` (where ``D = 0``), exactly as the
 tracker finds them.
@@ -19,53 +21,21 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
-from hand_tracker_ros._typing import FloatArray, IntArray
+from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.core.shaped_pose import ShapedPose
 from hand_tracker_ros.core.views import model_views
-from hand_tracker_ros.energies.registry import TermsConfig, build_terms
+from hand_tracker_ros.energies.registry import TermsConfig, size_terms
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.shape_jacobian import S, ShapeRig
 from hand_tracker_ros.render.contours import MeshEdges
 from hand_tracker_ros.tracking.problem import read_vertices, weighted_rows
-
-# The terms that see the hand's size in the images (the others are priors on the pose).
-IMAGE_TERMS = ('edges', 'silhouette', 'salient')
-
-
-@dataclass(frozen=True, eq=False)
-class ShapedPose:
-    """The hand at one pose and shape, as the energy terms read it.
-
-    Attributes
-    ----------
-    theta : (P + S,) float64
-        ``[theta; x]``.
-    vertices_m : (V, 3) float64
-    vertices_jac : (V, 3, P + S) float64 or None
-    fingertip_vertex_ids : (5,) int64
-    """
-
-    theta: FloatArray
-    vertices_m: FloatArray
-    vertices_jac: FloatArray | None
-    fingertip_vertex_ids: IntArray
-
-    @property
-    def fingertips_m(self) -> FloatArray:
-        """Fingertip vertices (5, 3) float64."""
-        return self.vertices_m[self.fingertip_vertex_ids]
-
-
-def image_terms(model: HandModel, config: TermsConfig = TermsConfig()) -> list[Term]:
-    """The enabled image terms (IMAGE_TERMS) of ``config`` built for ``model``."""
-    return [t for t in build_terms(config, model) if t.name in IMAGE_TERMS]
 
 
 class FrameTerms:
@@ -143,7 +113,7 @@ def frame_terms(model: HandModel, cameras: Sequence[PinholeCamera],
                 config: TermsConfig = TermsConfig()) -> list[FrameTerms]:
     """One :class:`FrameTerms` per frame; ``thetas`` (N, P) float64."""
     rig = ShapeRig.vertices(model)
-    terms = image_terms(model, config)
+    terms = size_terms(config, model)
     return [FrameTerms(model, rig, terms, cameras, obs, theta)
             for obs, theta in zip(observations, thetas)]
 

@@ -21,6 +21,8 @@ from hand_tracker_ros.pipeline.track_bag import track_bag
 from hand_tracker_ros.progress import progress
 from hand_tracker_ros.ros_io.estimates_bag import write_estimates
 from hand_tracker_ros.status import TrackStatus
+from hand_tracker_ros.tracking.scale import ScaleConfig
+from hand_tracker_ros.tracking.session import SessionConfig
 
 
 def add_parser(sub: Any) -> None:
@@ -35,6 +37,9 @@ def add_parser(sub: Any) -> None:
     parser.add_argument('--shape', metavar='SHAPE.yaml',
                         help='hand shape file (hand-tracker calibrate; default: the default '
                              'hand)')
+    parser.add_argument('--fixed-scale', action='store_true',
+                        help='keep the shape\'s scale (by default the session follows the '
+                             'hand\'s scale while tracking: session.scale)')
     parser.set_defaults(run=run)
 
 
@@ -42,7 +47,9 @@ def run(args: argparse.Namespace) -> int:
     """Track and write; print a summary."""
     rig = CameraRig.from_yaml(rig_file(args.bag, args.rig))
     model = HandModel.build(shape_or_default(args.shape))
-    estimates = track_bag(args.bag, rig_path=args.rig, config=PipelineConfig(),
+    config = PipelineConfig(session=SessionConfig(scale=ScaleConfig(
+        enabled=not args.fixed_scale)))
+    estimates = track_bag(args.bag, rig_path=args.rig, config=config,
                           init_from_ground_truth=args.init == 'ground-truth', shape=model.shape)
     frames = write_estimates(progress(estimates, total=image_count(args.bag, rig.names[0]),
                                       desc='track', unit='set'),
@@ -51,6 +58,10 @@ def run(args: argparse.Namespace) -> int:
     ms = 1e3 * np.median([f.result.timings_s['total'] for f in frames]) if frames else 0.0
     print(f'tracked {tracked}/{len(frames)} frame sets ({ms:.0f} ms/frame median); '
           f'wrote {args.out}')
+    followed = frames[-1].result.posed.model.shape.scale if frames else model.shape.scale
+    if followed != model.shape.scale:
+        print(f'hand scale followed while tracking: {model.shape.scale:.3f} -> {followed:.3f} '
+              '(`hand-tracker calibrate` fits the whole shape)')
     scored = [f for f in frames if f.truth_keypoints_m is not None]
     if scored:
         errors = [1e3 * np.linalg.norm(f.result.posed.keypoints_m - f.truth_keypoints_m,

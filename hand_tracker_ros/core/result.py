@@ -26,7 +26,8 @@ class TrackResult:
     theta : (P,) float64
         Pose parameters (m, rad).
     posed : PosedHand
-        The model posed at ``theta``.
+        The model posed at ``theta``; ``posed.model`` is the shape in use, which the session
+        may refine while tracking (:mod:`hand_tracker_ros.tracking.scale`).
     iterations : int
         LM iterations spent on the set, recovery included.
     energy_costs : dict of str to float

@@ -47,6 +47,8 @@ class TermSpec:
     energy: Any               # the term's class: ``name``, ``from_model(config, model)``
     config: type              # its config dataclass
     separation: bool = False  # also minimised by the separation rounds (``tracking/separation``)
+    size: bool = False        # sees the hand's size in the images (``calibration/``, the online
+    #                           scale of ``tracking/scale.py``); the others are priors on the pose
 
     @property
     def name(self) -> str:
@@ -55,17 +57,18 @@ class TermSpec:
 
 
 TERMS: tuple[TermSpec, ...] = (
-    TermSpec('E', EdgeEnergy, EdgeEnergyConfig),
+    TermSpec('E', EdgeEnergy, EdgeEnergyConfig, size=True),
     TermSpec('O', FlowEnergy, FlowEnergyConfig),
-    TermSpec('S', SalientEnergy, SalientConfig),
+    TermSpec('S', SalientEnergy, SalientConfig, size=True),
     TermSpec('C', CollisionEnergy, CollisionConfig, separation=True),
     TermSpec('C', VolumeCollisionEnergy, VolumeCollisionConfig, separation=True),
     TermSpec('L', JointLimitsEnergy, JointLimitsConfig),
-    TermSpec('Sil', SilhouetteEnergy, SilhouetteConfig),
+    TermSpec('Sil', SilhouetteEnergy, SilhouetteConfig, size=True),
     TermSpec('T', TemporalEnergy, TemporalConfig),
 )
 NAMES: tuple[str, ...] = tuple(t.name for t in TERMS)
 SEPARATION_TERMS: tuple[str, ...] = tuple(t.name for t in TERMS if t.separation)
+SIZE_TERMS: tuple[str, ...] = tuple(t.name for t in TERMS if t.size)
 #: The term of the local optimizer itself, in every ablation row (the temporal prior).
 ALWAYS_IN_ABLATION = 'T'
 
@@ -99,3 +102,8 @@ def build_terms(config: TermsConfig, model: HandModel) -> list[Term]:
         if term_config.enabled and term_config.weight > 0.0:
             terms.append(Term(spec.energy.from_model(term_config, model), term_config.weight))
     return terms
+
+
+def size_terms(config: TermsConfig, model: HandModel) -> list[Term]:
+    """The enabled terms of :data:`SIZE_TERMS` with their weights, built for ``model``."""
+    return [t for t in build_terms(config, model) if t.name in SIZE_TERMS]

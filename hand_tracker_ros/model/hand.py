@@ -71,6 +71,11 @@ class PosedHand:
     _model: HandModel = field(repr=False)
     _fk: kinematics.FKResult = field(repr=False)
 
+    @property
+    def model(self) -> HandModel:
+        """The hand model posed (its shape, mesh and limits)."""
+        return self._model
+
     @functools.cached_property
     def vertex_normals(self) -> FloatArray:
         """Unit outward vertex normals (V, 3) float64."""

@@ -12,7 +12,8 @@ hosts the features and salient_points nodes, data in memory) ``<cam>/<image_topi
 (JointState, only while TRACKING), ``hand/state`` (HandState, every processed set, LOST
 included), ``hand/markers`` (MarkerArray, DELETEALL when not tracking), ``/tf`` (every URDF
 joint, only while TRACKING; ``publish_tf``), ``hand/robot_description`` (the URDF rooted at
-``world_frame``, once, transient local), ``/diagnostics`` (every ``diagnostics_period_s``)
+``world_frame``, transient local; sent again when the hand's scale is refined),
+``/diagnostics`` (every ``diagnostics_period_s``)
 and, with ``publish_overlay``, ``<cam>/overlay`` (rgb8, at the working resolution: images
 wider than ``working_width_px`` are observed and fitted scaled down,
 :mod:`hand_tracker_ros.vision.resolution`). The estimates are converted by
@@ -45,7 +46,9 @@ contradicts the rig drops that camera's frames with a throttled error; a missing
 is only reported (the rig is used; the policy is
 :class:`hand_tracker_ros.sync.input_health.InputHealth`). Without a ``rig_file`` the node
 refuses to start and says so. The hand's size comes from ``shape_file`` (the default hand
-when empty); HandState's ``shape_parameters``, the URDF, TF and the markers follow it.
+when empty), and the session follows its global scale while tracking (``session.scale``,
+:mod:`hand_tracker_ros.tracking.scale`); HandState's ``shape_parameters``, the URDF, TF and
+the markers follow the shape in use.
 """
 from __future__ import annotations
 
@@ -223,14 +226,16 @@ class TrackerNode(Node):
 
     def _create_outputs(self) -> None:
         cfg = self.config
-        faces = self._model.faces if cfg.publish_mesh else None
-        self._encoder = EstimateEncoder(RclpyKit(), self._model, cfg.world_frame, faces)
+        self._encoder = EstimateEncoder(RclpyKit(), self._model, cfg.world_frame,
+                                        cfg.publish_mesh)
         self._pubs = {t: self.create_publisher(message_class(t.msgtype), t.name, 10)
                       for t in topics.ESTIMATES if cfg.publish_tf or t != topics.TF}
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         description = topics.ROBOT_DESCRIPTION
-        self.create_publisher(message_class(description.msgtype), description.name,
-                              latched).publish(self._encoder.robot_description())
+        # The encoder sends it again when the session refines the hand's scale.
+        self._pubs[description] = self.create_publisher(message_class(description.msgtype),
+                                                        description.name, latched)
+        self._pubs[description].publish(self._encoder.robot_description())
         self._pub_diag = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS.name, 10)
         self._pub_overlay = {c: self.create_publisher(Image, topics.overlay_topic(c), 2)
                              for c in cfg.cameras} if cfg.publish_overlay else {}

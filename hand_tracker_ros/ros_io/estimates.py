@@ -7,6 +7,10 @@ writes into its estimates bag, built with the node's rclpy classes or the bag's 
 Every message carries ``header.stamp`` = the input set's stamp and ``header.frame_id`` = the
 world frame. Per set, in this order:
 
+- ``hand/robot_description`` (only when the result's model is not the one of the last set,
+  e.g. after the session refined the hand's scale; the first is the caller's to send): the
+  URDF at the new shape, which TF, the markers and HandState's shape follow from this set on;
+
 - ``hand/joint_states`` (only when TRACKING): ``PARAM_NAMES`` and ``theta`` (m, rad);
 - ``hand/state`` (every set, LOST included, with the rejected estimate): status, confidence,
   pose, keypoints and fingertips (m), shape, per-term costs (names sorted), iterations and
@@ -24,7 +28,7 @@ ns            type           content
 skeleton      LINE_LIST      the 20 bones between the 21 keypoints
 joints        SPHERE_LIST    the 21 keypoints
 fingertips    SPHERE_LIST    the 5 fingertip surface points (thumb .. pinky)
-mesh          TRIANGLE_LIST  the posed mesh (only with ``faces``, the node's ``publish_mesh``)
+mesh          TRIANGLE_LIST  the posed mesh (only with ``publish_mesh``, the node's parameter)
 ============  =============  ===========================================================
 
 No ROS package is imported here: the kit brings the message classes.
@@ -37,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from hand_tracker_ros import topics
-from hand_tracker_ros._typing import FloatArray, IntArray
+from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.core.result import TrackResult
 from hand_tracker_ros.geometry.rotations import quaternions_xyzw_from_matrices
 from hand_tracker_ros.model.hand import HandModel
@@ -91,20 +95,26 @@ class EstimateEncoder:
     kit : MessageKit
         Message classes: :class:`.message_kit.RclpyKit` (node) or ``RosbagsKit`` (bags).
     model : HandModel
-        The tracked model (its shape goes into HandState and the URDF).
+        The tracked model (its shape goes into HandState and the URDF); a result posed with
+        another model switches to that one.
     world_frame : str
         Frame of every output and root link of the URDF and TF.
-    faces : (F, 3) int, optional
+    publish_mesh : bool
         Also send the posed mesh as a marker.
     """
 
     def __init__(self, kit: MessageKit, model: HandModel, world_frame: str,
-                 faces: IntArray | None = None) -> None:
+                 publish_mesh: bool = False) -> None:
         self.kit = kit
-        self.model = model
         self.world_frame = world_frame
-        self.faces = faces
-        self.joints = urdf_joints(model, root_link=world_frame)
+        self.publish_mesh = publish_mesh
+        self._use(model)
+
+    def _use(self, model: HandModel) -> None:
+        """Encode for ``model``: its shape, URDF joints and faces."""
+        self.model = model
+        self.faces = model.faces if self.publish_mesh else None
+        self.joints = urdf_joints(model, root_link=self.world_frame)
 
     def messages(self, result: TrackResult, processing_time_s: float
                  ) -> Iterator[tuple[topics.Topic, Any]]:
@@ -117,6 +127,9 @@ class EstimateEncoder:
         ``processing_time_s`` (s) goes into HandState: the node's receipt-to-publication time,
         or offline the result's ``timings_s['total']``.
         """
+        if result.posed.model is not self.model:
+            self._use(result.posed.model)
+            yield topics.ROBOT_DESCRIPTION, self.robot_description()
         tracking = result.status == TrackStatus.TRACKING
         if tracking:
             yield topics.JOINT_STATES, self.joint_state(result)

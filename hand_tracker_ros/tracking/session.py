@@ -30,6 +30,11 @@ tracked offline and the same bag played through the graph follow the same rules:
    ``failure.lost_below``, LOST otherwise. The kept fit is the next frame's start either way
    (a LOST frame can still be the best guess there is), and the last TRACKING estimate stays a
    recovery start.
+7. **Follow the hand's size** (``scale``, :mod:`.scale`): every few frames the kept fit (a
+   live search's too) measures the hand's global scale; when the measurements disagree with
+   the model, the model is rebuilt at the measured scale (the history is kept,
+   :meth:`HandTracker.reshape`), a few percent at a time, from the next frame on. Results
+   carry the model they were posed with.
 """
 from __future__ import annotations
 
@@ -43,6 +48,8 @@ from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.result import TrackResult
+from hand_tracker_ros.energies.registry import SIZE_TERMS
+from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.acquisition import Acquisition, AcquisitionConfig
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
@@ -53,6 +60,7 @@ from hand_tracker_ros.tracking.hypotheses import (
     turned_hypotheses,
 )
 from hand_tracker_ros.tracking.initialize import InitConfig, initialize
+from hand_tracker_ros.tracking.scale import FrameScale, ScaleConfig, ScaleRefiner
 from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
@@ -81,6 +89,7 @@ class SessionConfig:
     evidence: EvidenceConfig = nested(EvidenceConfig)
     init: InitConfig = nested(InitConfig)
     acquisition: AcquisitionConfig = nested(AcquisitionConfig)
+    scale: ScaleConfig = nested(ScaleConfig)
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,6 +123,8 @@ class TrackingSession:
         self._acquisition: Acquisition | None = None     # a live search in progress
         self.restarts = 0     # starts (initial pose or search) after losses, in all
         self.status: TrackStatus | None = None     # of the last frame; None before one
+        self._scale = (ScaleRefiner(config.scale, tracker.model.shape.scale)
+                       if config.scale.enabled else None)
 
     @property
     def initialized(self) -> bool:
@@ -205,8 +216,10 @@ class TrackingSession:
             timings['search'] = time.perf_counter() - t0
             if searched.confidence > judged.confidence:
                 judged = searched
-        return self._report(judged, observations.stamp_ns, iterations, timings, start,
-                            continues=judged.name == 'previous' and not searched_now)
+        result = self._report(judged, observations.stamp_ns, iterations, timings, start,
+                              continues=judged.name == 'previous' and not searched_now)
+        self._follow_scale(judged, observations)
+        return result
 
     def _report(self, judged: _Judged, stamp_ns: int, iterations: int,
                 timings: dict[str, float], start: float, continues: bool) -> TrackResult:
@@ -219,6 +232,21 @@ class TrackingSession:
                            fit.energy_costs, judged.confidence, judged.evidence, timings,
                            fit.labels, '' if judged.name == 'previous' else judged.name,
                            lm_statuses=fit.lm_statuses)
+
+    def _follow_scale(self, judged: _Judged, observations: FrameObservations) -> None:
+        """Step 7: measure the hand's scale on a due frame and rebuild the model at the
+        scale the refiner moves to. Live too, past the set's deadline (2-3 ms every third
+        set): a hand of the wrong size is what keeps a live search LOST."""
+        refiner = self._scale
+        if refiner is None or not refiner.due(judged.confidence):
+            return
+        model = self.tracker.model
+        terms = [t for t in self.tracker.terms if t.name in SIZE_TERMS]
+        frame = FrameScale(terms, judged.fit.posed, judged.fit.views, observations)
+        scale = refiner.update(model.shape.scale, frame.estimate())
+        if scale is not None:
+            LOG.info('hand scale %.3f -> %.3f', model.shape.scale, scale)
+            self.tracker.reshape(HandModel.build(model.shape.replace(scale=scale)))
 
     def _searches(self, restart: bool) -> bool:
         """Whether a start (``restart``: after losses) searches rather than resets to
@@ -245,8 +273,10 @@ class TrackingSession:
         judged = self._judge('search', fit, observations)
         if judged.confidence >= self.config.failure.lost_below:
             self._acquisition = None
-        return self._report(judged, observations.stamp_ns, fit.iterations, timings, start,
-                            continues=False)
+        result = self._report(judged, observations.stamp_ns, fit.iterations, timings, start,
+                              continues=False)
+        self._follow_scale(judged, observations)
+        return result
 
     @property
     def _can_start(self) -> bool:

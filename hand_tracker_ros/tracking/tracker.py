@@ -28,7 +28,7 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import nested, param
 from hand_tracker_ros.core.context import CollisionPairs, PreviousFrame, RoundContext
-from hand_tracker_ros.core.energy import PreparesFrames
+from hand_tracker_ros.core.energy import PreparesFrames, Term
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.views import (
     ModelView,
@@ -112,14 +112,32 @@ class HandTracker:
 
     def __init__(self, model: HandModel, cameras: Sequence[Camera],
                  config: TrackerConfig = TrackerConfig()) -> None:
-        self.model = model
         self.cameras = tuple(cameras)
         self.config = config
-        self._edges = MeshEdges.from_faces(model.faces)
-        self._terms = build_terms(config.terms, model)
-        self._separator = Separator(model, self._terms, config.separation, config.lm)
         self._rounds = rounds(config.schedule)
         self._previous: PreviousFrame | None = None
+        self._build(model)
+
+    def _build(self, model: HandModel) -> None:
+        """Everything that depends on the model."""
+        self.model = model
+        self._edges = MeshEdges.from_faces(model.faces)
+        self._terms = build_terms(self.config.terms, model)
+        self._separator = Separator(model, self._terms, self.config.separation, self.config.lm)
+
+    def reshape(self, model: HandModel) -> None:
+        """Track ``model``, the hand at another shape, from the next fit on; the history
+        is kept, posed on it."""
+        self._build(model)
+        if self._previous is not None:
+            thetas = self._previous.thetas
+            posed = model.pose(thetas[-1], jacobian=False)
+            self._previous = PreviousFrame(posed, self.views(posed), thetas)
+
+    @property
+    def terms(self) -> tuple[Term, ...]:
+        """The enabled energy terms, built for the model."""
+        return tuple(self._terms)
 
     @property
     def initialized(self) -> bool:
@@ -127,8 +145,11 @@ class HandTracker:
         return self._previous is not None
 
     def views(self, posed: PosedHand) -> tuple[ModelView, ...]:
-        """The model rendered into every camera."""
-        return model_views(posed, self._edges, self.cameras)
+        """The model ``posed`` (this tracker's or, after :meth:`reshape`, an earlier one)
+        rendered into every camera."""
+        edges = self._edges if posed.model is self.model else MeshEdges.from_faces(
+            posed.model.faces)
+        return model_views(posed, edges, self.cameras)
 
     def prepare(self, observations: FrameObservations) -> None:
         """The terms' per-frame work that needs no pose (:class:`PreparesFrames`), for the

@@ -24,17 +24,3 @@ def random_theta(model: HandModel) -> Callable[[np.random.Generator], np.ndarray
         theta[3:6] = rng.uniform(-np.pi, np.pi, 3)
         return theta
     return draw
-
-
-@pytest.fixture
-def numeric_jacobian() -> Callable[..., np.ndarray]:
-    """Central-difference Jacobian (..., P) of ``fn(theta) -> (...)``: the test oracle."""
-    def jac(fn: Callable[[np.ndarray], np.ndarray], theta: np.ndarray,
-            step: float = 1e-6) -> np.ndarray:
-        cols = []
-        for k in range(theta.size):
-            e = np.zeros_like(theta)
-            e[k] = step
-            cols.append((fn(theta + e) - fn(theta - e)) / (2.0 * step))
-        return np.stack(cols, axis=-1)
-    return jac

@@ -31,11 +31,11 @@ def test_neutral_pose_default_matches_the_model(hand_model) -> None:
     np.testing.assert_array_equal(NEUTRAL_POSE, hand_model.neutral_theta())
 
 
-def _encoder(model, faces=None, frame='world'):
+def _encoder(model, publish_mesh=False, frame='world'):
     from hand_tracker_ros.ros_io.estimates import EstimateEncoder
     from hand_tracker_ros.ros_io.message_kit import RclpyKit
 
-    return EstimateEncoder(RclpyKit(), model, frame, faces)
+    return EstimateEncoder(RclpyKit(), model, frame, publish_mesh)
 
 
 def test_joint_and_hand_state_carry_the_estimate(hand_model) -> None:
@@ -69,6 +69,29 @@ def test_a_set_gives_every_output_topic_and_lost_ones_no_pose(hand_model) -> Non
     assert [t for t, _ in tracked] == list(topics.ESTIMATES)
     lost = encoder.messages(_result(hand_model, TrackStatus.LOST), 0.1)
     assert [t for t, _ in lost] == [topics.STATE, topics.MARKERS]
+
+
+def test_a_result_of_another_shape_resends_the_urdf_and_is_encoded_with_it(hand_model
+                                                                           ) -> None:
+    """After the session refined the hand's scale: the URDF first, then HandState, TF and
+    the mesh of the new model; the model after it is encoded without a new URDF."""
+    from hand_tracker_ros import topics
+    from hand_tracker_ros.model.hand import HandModel
+    from hand_tracker_ros.model.shape import HandShape
+
+    encoder = _encoder(hand_model, publish_mesh=True)
+    larger = HandModel.build(HandShape(scale=1.05))
+    result = _result(larger, TrackStatus.TRACKING)
+    messages = dict(encoder.messages(result, 0.1))
+    again = list(encoder.messages(result, 0.1))
+    assert [t for t, _ in again] == list(topics.ESTIMATES)
+    assert messages[topics.ROBOT_DESCRIPTION].data == \
+        _encoder(larger).robot_description().data != \
+        _encoder(hand_model).robot_description().data
+    assert messages[topics.STATE].shape_parameters[0] == pytest.approx(1.05)
+    assert messages[topics.TF] == _encoder(larger).tf(result)
+    mesh = [m for m in messages[topics.MARKERS].markers if m.ns == 'mesh'][0]
+    assert len(mesh.points) == larger.faces.size
 
 
 def test_tf_chains_from_the_world_frame_to_every_bone(hand_model) -> None:
@@ -106,8 +129,8 @@ def test_the_rclpy_and_the_rosbags_kit_build_the_same_messages(hand_model) -> No
     from hand_tracker_ros.ros_io.estimates import EstimateEncoder
     from hand_tracker_ros.ros_io.message_kit import RosbagsKit, message_class
 
-    bag = EstimateEncoder(RosbagsKit(), hand_model, 'world', hand_model.faces)
-    live = _encoder(hand_model, hand_model.faces)
+    bag = EstimateEncoder(RosbagsKit(), hand_model, 'world', publish_mesh=True)
+    live = _encoder(hand_model, publish_mesh=True)
     for status in TrackStatus:
         result = _result(hand_model, status)
         pairs = list(zip(bag.messages(result, 0.5), live.messages(result, 0.5), strict=True))
@@ -137,7 +160,7 @@ def test_markers_have_stable_ids_and_deleteall_when_lost(hand_model) -> None:
     np.testing.assert_allclose(first, result.posed.keypoints_m[[0, 1]])
     assert all(m.header.stamp.nanosec == STAMP_NS % 10**9 for m in array.markers)
     assert all(m.pose.orientation.w == 1.0 for m in array.markers)
-    with_mesh = _encoder(hand_model, hand_model.faces).markers(result)
+    with_mesh = _encoder(hand_model, publish_mesh=True).markers(result)
     mesh = with_mesh.markers[-1]
     assert (mesh.ns, mesh.type) == ('mesh', Marker.TRIANGLE_LIST)
     assert len(mesh.points) == 3 * len(hand_model.faces)

@@ -283,3 +283,21 @@ def test_contour_shift_is_the_largest_camera_median(hand_model, grasp) -> None:
         axis=1))) for v, m in zip(views, moved))
     assert contour_shift_px(views, moved_pose) == pytest.approx(expected)
     assert 0.5 < expected < 5.0
+
+
+def test_reshape_keeps_the_history_posed_on_the_new_model(hand_model, grasp) -> None:
+    from hand_tracker_ros.model.hand import HandModel
+    from hand_tracker_ros.model.shape import HandShape
+
+    sequence, frames = grasp
+    tracker = HandTracker(hand_model, sequence.rig.cameras)
+    tracker.reset(frames[0].theta)
+    before = tracker.last_posed
+    larger = HandModel.build(HandShape(scale=1.08))
+    tracker.reshape(larger)
+    np.testing.assert_array_equal(tracker.history, frames[0].theta[None])
+    assert tracker.model is larger and tracker.last_posed.model is larger
+    # A result posed on the earlier model is still rendered with that model's mesh.
+    old_views = tracker.views(before)
+    assert all(v.raster.mask.sum() < w.raster.mask.sum()
+               for v, w in zip(old_views, tracker.views(tracker.last_posed)))
