@@ -235,6 +235,12 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
     (the plain fine-tune 2.29). Below the plain fine-tune on seed 1: not kept.
   Fist 3106 is bistable live whatever the model: five runs of the model before these gave
   4.76-8.06 mm, never LOST.
+- fifteenth session (2026-11-27), inference only: the probability maps of the image and of its
+  mirror image averaged (the width padded to 4 k + 1 px so that the cells of both fall
+  together): seed 1 0.936 / 0.819 at 0.45 and 0.906 / 0.839 at 0.4 (the shipped model
+  0.920 / 0.817 and 0.874 / 0.841), 4.18 against 1.80 ms per 320 x 240 image; the mirror up
+  and down as well gave no more (0.937 / 0.809, 8.45 ms). Real 14 / 20 (5, 3, 2, 4) against
+  16: not kept.
 """
 from __future__ import annotations
 
