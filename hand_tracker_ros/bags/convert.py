@@ -24,6 +24,7 @@ from hand_tracker_ros.bags.image_codec import compress_rgb
 from hand_tracker_ros.bags.typestore import typestore
 from hand_tracker_ros.checks import check_finite, check_shape
 from hand_tracker_ros.errors import ImageFormatError, ShapeError
+from hand_tracker_ros.model.shape import HandShape
 
 NS_PER_S = 1_000_000_000
 
@@ -253,6 +254,12 @@ class HandStateValues:
     energy_costs: FloatArray
     iterations: int
     processing_time_s: float
+
+    @property
+    def shape(self) -> HandShape:
+        """The hand shape the estimate was posed with (``shape_parameters``; the session may
+        have refined its scale while tracking)."""
+        return HandShape.from_vector(self.shape_parameters)
 
 
 def _check_hand_state(state: HandStateValues) -> None:

@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     followed = frames[-1].result.posed.model.shape.scale if frames else model.shape.scale
     if followed != model.shape.scale:
         print(f'hand scale followed while tracking: {model.shape.scale:.3f} -> {followed:.3f} '
-              '(`hand-tracker calibrate` fits the whole shape)')
+              'at the last set (`hand-tracker calibrate` fits the whole shape)')
     scored = [f for f in frames if f.truth_keypoints_m is not None]
     if scored:
         errors = [1e3 * np.linalg.norm(f.result.posed.keypoints_m - f.truth_keypoints_m,

@@ -141,7 +141,6 @@ def overlay_grid(bag: Path, rig: CameraRig, states: Mapping[int, HandStateValues
                  errors_mm: Mapping[int, float] | None = None) -> None:
     """One row per stamp, one column per camera: the estimate drawn on the camera image,
     labelled (:func:`labelled_grid`); ``errors_mm`` by stamp, where known."""
-    model = HandModel.build()
     images: dict[tuple[str, int], np.ndarray] = {}
     with BagReader(bag) as reader:
         wanted = {camera_image_topic(reader.topics, c.name): c for c in rig.cameras}
@@ -151,6 +150,7 @@ def overlay_grid(bag: Path, rig: CameraRig, states: Mapping[int, HandStateValues
     order = sorted(states)
     rows, captions = [], []
     for stamp in stamps:
+        model = HandModel.build(states[stamp].shape)
         posed = model.pose(np.asarray(states[stamp].joint_positions), jacobian=False)
         row = []
         for topic, camera in wanted.items():

@@ -21,6 +21,8 @@ import numpy as np
 
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
+from hand_tracker_ros.model.hand import PosedHand
 from hand_tracker_ros.model.skeleton import KEYPOINT_NAMES
 
 TIP_INDICES = tuple(i for i, name in enumerate(KEYPOINT_NAMES) if name.endswith('_tip'))
@@ -94,3 +96,12 @@ def score_sequence(estimated_m: FloatArray, truth_m: FloatArray, lost: Sequence[
         reprojection_px=float(reprojection_px(estimated_m, truth_m, cameras).mean()),
         max_interpenetration_mm=1e3 * float(np.max(interpenetration_m, initial=0.0)),
         failures=failures, ms_per_frame=1e3 * float(np.median(seconds_per_frame)))
+
+
+def deepest_interpenetration_m(posed: PosedHand) -> float:
+    """Deepest interpenetration (m) between non-adjacent parts of the hand ``posed``, on
+    its own model (the session may have rebuilt the model at another scale)."""
+    model = posed.model
+    return max_interpenetration_m(posed.vertices_m, model.faces,
+                                  face_parts(model.faces, model.vertex_part),
+                                  model.adjacent_parts)

@@ -35,9 +35,13 @@ from hand_tracker_ros.ament import share_file
 from hand_tracker_ros.bags.convert import HandStateValues, hand_state_from_msg
 from hand_tracker_ros.bags.reader import BagReader
 from hand_tracker_ros.errors import HandTrackerError
-from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
+from hand_tracker_ros.evaluation.metrics import (
+    SequenceScores,
+    deepest_interpenetration_m,
+    joint_errors_mm,
+    score_sequence,
+)
 from hand_tracker_ros.geometry.rig import CameraRig
-from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
 from hand_tracker_ros.launcher import (
     TRACKING_PROCESSES,
     ProcessGroup,
@@ -200,12 +204,9 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
     if not common:
         return ReplayOutcome(recorded, len(truth), n_joint_states, None, states, np.zeros(0),
                              latencies, duration_s)
-    model = HandModel.build()
-    parts = face_parts(model.faces, model.vertex_part)
     estimate = np.array([states[s].keypoints_m for s in common])
-    depth = [max_interpenetration_m(model.pose(states[s].joint_positions, jacobian=False)
-                                    .vertices_m, model.faces, parts, model.adjacent_parts)
-             for s in common]
+    depth = [deepest_interpenetration_m(HandModel.build(states[s].shape).pose(
+        states[s].joint_positions, jacobian=False)) for s in common]
     true = np.array([truth[s].keypoints_m for s in common])
     scores = score_sequence(estimate, true, [states[s].status == 2 for s in common],
                             rig.cameras, depth, [states[s].processing_time_s for s in common])

@@ -20,8 +20,12 @@ import numpy as np
 from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.frames import FrameSet
-from hand_tracker_ros.evaluation.metrics import SequenceScores, joint_errors_mm, score_sequence
-from hand_tracker_ros.geometry.triangle_pairs import face_parts, max_interpenetration_m
+from hand_tracker_ros.evaluation.metrics import (
+    SequenceScores,
+    deepest_interpenetration_m,
+    joint_errors_mm,
+    score_sequence,
+)
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.progress import progress
@@ -73,7 +77,6 @@ def run_job(job: Job) -> RunResult:
         motion=job.motion, n_frames=bench.n_frames, fps=bench.fps, n_cameras=bench.n_cameras,
         width=bench.width, height=bench.height, seed=bench.seed), model)
     pipeline = OfflinePipeline(model, sequence.rig, job.pipeline)
-    faces_part = face_parts(model.faces, model.vertex_part)
     truth, estimate, lost, seconds, depth = [], [], [], [], []
     first = sequence.frame(0)
     pipeline.session.reset(first.theta)
@@ -85,8 +88,7 @@ def run_job(job: Job) -> RunResult:
         estimate.append(result.posed.keypoints_m)
         lost.append(result.status == TrackStatus.LOST)
         seconds.append(result.timings_s['total'])
-        depth.append(max_interpenetration_m(result.posed.vertices_m, model.faces, faces_part,
-                                            model.adjacent_parts))
+        depth.append(deepest_interpenetration_m(result.posed))
         if pipeline.session.lost_frames >= job.pipeline.session.failure.reinit_after:
             pipeline.session.reset(frame.theta)
     pipeline.close()

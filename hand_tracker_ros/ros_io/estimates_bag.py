@@ -1,9 +1,10 @@
 """The estimates bag of ``hand-tracker track``: the live tracker's outputs, written offline.
 
 The same topics and messages as the tracker node publishes (:class:`.estimates.EstimateEncoder`
-with rosbags classes, so no rclpy is needed): ``/hand/robot_description`` once (latched, at the
-first set's stamp), then per set ``/hand/joint_states`` and ``/tf`` (TRACKING sets only),
-``/hand/state`` and ``/hand/markers``. Bag times are the input sets' stamps. Played back (or
+with rosbags classes, so no rclpy is needed): ``/hand/robot_description`` (latched) at the
+first set's stamp and again at each set tracked with a refined scale, then per set
+``/hand/joint_states`` and ``/tf`` (TRACKING sets only), ``/hand/state`` and
+``/hand/markers``. Bag times are the input sets' stamps. Played back (or
 opened in Foxglove) it shows what the live graph would have shown.
 """
 from __future__ import annotations

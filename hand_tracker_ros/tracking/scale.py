@@ -80,6 +80,14 @@ class ScaleConfig:
     limits: tuple[float, float] = param((0.8, 1.25), 'the scale stays within these factors '
                                         'of the start scale', low=0.01, high=100.0)
 
+    def __post_init__(self) -> None:
+        if not self.limits[0] <= 1.0 <= self.limits[1]:
+            msg = f'`limits` must hold 1 (the start scale), got {tuple(self.limits)}'
+            raise ValueError(msg)
+        if self.settle > self.trigger:
+            msg = f'`settle` ({self.settle}) must not exceed `trigger` ({self.trigger})'
+            raise ValueError(msg)
+
 
 @dataclass(frozen=True)
 class ScaleEstimate:
@@ -179,16 +187,18 @@ class ScaleRefiner:
 
     def due(self, confidence: float) -> bool:
         """Count a frame of this ``confidence``; True when the scale should be measured on it
-        (and stays True until :meth:`update` is given a measurement)."""
+        (the count starts again)."""
         if confidence >= self.config.min_confidence:
             self._frames += 1
-        return self._frames >= self.config.every
+        if self._frames < self.config.every:
+            return False
+        self._frames = 0
+        return True
 
     def update(self, scale: float, estimate: ScaleEstimate | None) -> float | None:
         """Take a frame's ``estimate`` (None: not measurable) made with the model at
         ``scale``; the model's new scale, or None to keep it."""
         cfg = self.config
-        self._frames = 0
         if estimate is None:
             return None
         self._weight = cfg.memory * self._weight + estimate.information

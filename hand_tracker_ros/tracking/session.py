@@ -39,8 +39,12 @@ tracked offline and the same bag played through the graph follow the same rules:
 from __future__ import annotations
 
 import logging
+import threading
 import time
+from collections.abc import Callable
+from concurrent.futures import Future
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -65,6 +69,7 @@ from hand_tracker_ros.tracking.schedule import QUICK
 from hand_tracker_ros.tracking.tracker import Fit, HandTracker
 
 LOG = logging.getLogger(__name__)
+_T = TypeVar('_T')
 
 
 @dataclass(frozen=True)
@@ -125,6 +130,8 @@ class TrackingSession:
         self.status: TrackStatus | None = None     # of the last frame; None before one
         self._scale = (ScaleRefiner(config.scale, tracker.model.shape.scale)
                        if config.scale.enabled else None)
+        # A live scale move's model being built: (its scale, the build).
+        self._building: tuple[float, Future[HandModel]] | None = None
 
     @property
     def initialized(self) -> bool:
@@ -171,6 +178,7 @@ class TrackingSession:
         """
         start = time.perf_counter()
         timings: dict[str, float] = {}
+        self._take_built_model()
         if (not self.tracker.initialized and self._searches_live(deadline_s, restart=False)
                 and self._acquisition is None):
             self._acquisition = self._new_acquisition(None)
@@ -218,7 +226,7 @@ class TrackingSession:
                 judged = searched
         result = self._report(judged, observations.stamp_ns, iterations, timings, start,
                               continues=judged.name == 'previous' and not searched_now)
-        self._follow_scale(judged, observations)
+        self._follow_scale(judged, observations, result.timings_s, live)
         return result
 
     def _report(self, judged: _Judged, stamp_ns: int, iterations: int,
@@ -233,20 +241,41 @@ class TrackingSession:
                            fit.labels, '' if judged.name == 'previous' else judged.name,
                            lm_statuses=fit.lm_statuses)
 
-    def _follow_scale(self, judged: _Judged, observations: FrameObservations) -> None:
-        """Step 7: measure the hand's scale on a due frame and rebuild the model at the
-        scale the refiner moves to. Live too, past the set's deadline (2-3 ms every third
-        set): a hand of the wrong size is what keeps a live search LOST."""
+    def _follow_scale(self, judged: _Judged, observations: FrameObservations,
+                      timings: dict[str, float], live: bool) -> None:
+        """Step 7: measure the hand's scale on a due frame (live too, past the set's
+        deadline: 2-3 ms every third set, and a hand of the wrong size is what keeps a live
+        search LOST) and rebuild the model at the scale the refiner moves to. The build
+        (about 65 ms) runs here offline, so that a bag is tracked the same every time; live,
+        on a thread of its own, and the tracker takes the model at the first set after it
+        is built (:meth:`_take_built_model`); meanwhile the estimates, which are absolute,
+        are compared with the scale being built. The time spent is ``timings['scale']``,
+        part of ``total``."""
         refiner = self._scale
-        if refiner is None or not refiner.due(judged.confidence):
+        if (refiner is None or not np.all(np.isfinite(judged.fit.theta))
+                or not refiner.due(judged.confidence)):
             return
+        t0 = time.perf_counter()
         model = self.tracker.model
+        target = model.shape.scale if self._building is None else self._building[0]
         terms = [t for t in self.tracker.terms if t.name in SIZE_TERMS]
         frame = FrameScale(terms, judged.fit.posed, judged.fit.views, observations)
-        scale = refiner.update(model.shape.scale, frame.estimate())
+        scale = refiner.update(target, frame.estimate())
         if scale is not None:
-            LOG.info('hand scale %.3f -> %.3f', model.shape.scale, scale)
-            self.tracker.reshape(HandModel.build(model.shape.replace(scale=scale)))
+            LOG.info('hand scale %.3f -> %.3f', target, scale)
+            shape = model.shape.replace(scale=scale)
+            if live:
+                self._building = (scale, _in_thread(HandModel.build, shape))
+            else:
+                self.tracker.reshape(HandModel.build(shape))
+        timings['scale'] = time.perf_counter() - t0
+        timings['total'] += timings['scale']
+
+    def _take_built_model(self) -> None:
+        """Track the model the last live scale move built, once it is ready (step 7)."""
+        if self._building is not None and self._building[1].done():
+            built, self._building = self._building[1], None
+            self.tracker.reshape(built.result())
 
     def _searches(self, restart: bool) -> bool:
         """Whether a start (``restart``: after losses) searches rather than resets to
@@ -275,7 +304,7 @@ class TrackingSession:
             self._acquisition = None
         result = self._report(judged, observations.stamp_ns, fit.iterations, timings, start,
                               continues=False)
-        self._follow_scale(judged, observations)
+        self._follow_scale(judged, observations, result.timings_s, live=True)
         return result
 
     @property
@@ -380,3 +409,18 @@ class TrackingSession:
         LOG.debug('frame lost (confidence %.2f, %d in a row)', judged.confidence, self._lost)
         return TrackStatus.LOST
 
+
+def _in_thread(function: Callable[..., _T], *args: object) -> Future[_T]:
+    """``function(*args)`` run on a daemon thread of its own; its future (not an executor:
+    a session has no end at which to shut one down, and a build left running at exit must not
+    hold the process)."""
+    future: Future[_T] = Future()
+
+    def run() -> None:
+        try:
+            future.set_result(function(*args))
+        except BaseException as err:  # noqa: BLE001 - handed to whoever takes the result
+            future.set_exception(err)
+
+    threading.Thread(target=run, name='hand-model', daemon=True).start()
+    return future

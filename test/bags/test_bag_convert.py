@@ -87,6 +87,16 @@ def test_hand_state_round_trip(samples):
             np.testing.assert_array_equal(got, want, err_msg=name)
 
 
+def test_a_hand_states_shape_is_the_shape_it_carries(samples):
+    from hand_tracker_ros.model.shape import SHAPE_NAMES, HandShape
+
+    shape = HandShape(scale=1.07, radius_scale=0.95)
+    state = dataclasses.replace(samples.hand_state(STAMP_NS, 2), shape_names=SHAPE_NAMES,
+                                shape_parameters=shape.to_vector())
+    back = convert.hand_state_from_msg(convert.hand_state_msg(state))
+    assert back.shape == state.shape == shape
+
+
 def test_a_hand_state_recorded_before_the_confidence_field_reads_as_nan(samples):
     msg = convert.hand_state_msg(samples.hand_state(STAMP_NS, 0))
     old = types.SimpleNamespace(**{f.name: getattr(msg, f.name) for f in dataclasses.fields(msg)

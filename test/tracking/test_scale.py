@@ -1,6 +1,8 @@
 """Online refinement of the hand's global scale: the frame's estimate and the policy."""
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -117,34 +119,44 @@ def test_the_refiner_skips_unsure_frames_and_stays_within_its_limits() -> None:
     refiner = ScaleRefiner(ScaleConfig(every=3, min_confidence=0.2, min_estimates=1,
                                        max_step=1.0, limits=(0.9, 1.1)), 1.0)
     assert not any(refiner.due(0.1) for _ in range(10))
-    assert not refiner.due(0.3) and not refiner.due(0.3) and refiner.due(0.3)
-    assert refiner.update(1.0, None) is None and not refiner.due(0.3)
-    for _ in range(2):
-        refiner.due(0.3)
+    # Every third confident frame, whether or not it could be measured.
+    assert [refiner.due(0.3) for _ in range(6)] == [False, False, True] * 2
+    assert refiner.update(1.0, None) is None
     assert refiner.update(1.0, ScaleEstimate(1.5, 1.0)) == pytest.approx(1.1)
+    with pytest.raises(ValueError, match='limits'):
+        ScaleConfig(limits=(1.3, 0.8))
+    with pytest.raises(ValueError, match='settle'):
+        ScaleConfig(trigger=0.01, settle=0.02)
 
 
 def test_a_session_follows_a_larger_hand(hand_model) -> None:
-    """Tracked with the default model, a 1.12x hand: the model grows towards it, the results
-    carry the model they were posed with, and the error falls below the fixed model's."""
+    """Tracked with the default model, a 1.12x hand: the model grows towards it, offline and
+    live (where the model is built on a thread and taken up at a later set), the results carry
+    the model they were posed with, and the error falls below the fixed model's."""
     truth = HandModel.build(HandShape(scale=1.12))
     sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=30, seed=4), truth)
     frames = [sequence.frame(k) for k in range(30)]
     errors, scales = {}, {}
-    for enabled in (False, True):
-        config = PipelineConfig(session=SessionConfig(scale=ScaleConfig(enabled=enabled)))
+    for run in ('fixed', 'offline', 'live'):
+        config = PipelineConfig(session=SessionConfig(scale=ScaleConfig(
+            enabled=run != 'fixed')))
         pipeline = OfflinePipeline(hand_model, sequence.rig, config)
         try:
             pipeline.session.reset(frames[0].theta)
-            results = [pipeline.step(FrameSet(f.stamp_ns, f.images)) for f in frames]
+            results = []
+            for f in frames:
+                observations = pipeline.observe(FrameSet(f.stamp_ns, f.images))[0]
+                # A live set with time for every round.
+                deadline = time.monotonic() + 10.0 if run == 'live' else None
+                results.append(pipeline.session.step(observations, deadline_s=deadline))
         finally:
             pipeline.close()
-        errors[enabled] = np.mean([np.linalg.norm(r.posed.keypoints_m - f.keypoints_m,
-                                                  axis=1).mean() for r, f in
-                                   zip(results[-10:], frames[-10:])])
-        scales[enabled] = [r.posed.model.shape.scale for r in results]
-    assert set(scales[False]) == {1.0}
-    assert 1.07 < scales[True][-1] < 1.16 and scales[True] == sorted(scales[True])
-    assert pipeline.tracker.model is results[-1].posed.model or \
-        pipeline.tracker.model.shape.scale >= results[-1].posed.model.shape.scale
-    assert errors[True] < 0.5 * errors[False]
+        errors[run] = np.mean([np.linalg.norm(r.posed.keypoints_m - f.keypoints_m,
+                                              axis=1).mean() for r, f in
+                               zip(results[-10:], frames[-10:])])
+        scales[run] = [r.posed.model.shape.scale for r in results]
+        assert any('scale' in r.timings_s for r in results) == (run != 'fixed')
+    assert set(scales['fixed']) == {1.0}
+    for run in ('offline', 'live'):
+        assert 1.07 < scales[run][-1] < 1.16 and scales[run] == sorted(scales[run])
+        assert errors[run] < 0.5 * errors['fixed']
