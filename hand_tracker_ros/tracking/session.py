@@ -244,13 +244,13 @@ class TrackingSession:
     def _follow_scale(self, judged: _Judged, observations: FrameObservations,
                       timings: dict[str, float], live: bool) -> None:
         """Step 7: measure the hand's scale on a due frame (live too, past the set's
-        deadline: 2-3 ms every third set, and a hand of the wrong size is what keeps a live
-        search LOST) and rebuild the model at the scale the refiner moves to. The build
-        (about 65 ms) runs here offline, so that a bag is tracked the same every time; live,
-        on a thread of its own, and the tracker takes the model at the first set after it
-        is built (:meth:`_take_built_model`); meanwhile the estimates, which are absolute,
-        are compared with the scale being built. The time spent is ``timings['scale']``,
-        part of ``total``."""
+        deadline: about 5 ms every third set, ``bench/bench_scale.py``; a hand of the wrong
+        size is what keeps a live search LOST) and rebuild the model at the scale the refiner
+        moves to. The build (about 65 ms) runs here offline, so that a bag is tracked the
+        same every time; live, on a thread of its own, and the tracker takes the model at the
+        first set after it is built (:meth:`_take_built_model`); meanwhile the estimates,
+        which are absolute, are compared with the scale being built. The time spent is
+        ``timings['scale']``, part of ``total``."""
         refiner = self._scale
         if (refiner is None or not np.all(np.isfinite(judged.fit.theta))
                 or not refiner.due(judged.confidence)):
