@@ -230,3 +230,34 @@ def test_synth_and_track_follow_the_shape_file(tmp_path: Path) -> None:
     error, states = _track(seq / 'bag', tmp_path / 'est', '--shape', str(seq / 'shape.yaml'))
     assert error < 6.0
     assert all(np.array_equal(s.shape_parameters, shape.to_vector()) for s in states)
+
+
+def test_the_scale_of_a_larger_hand_is_followed_unless_fixed(tmp_path: Path) -> None:
+    """A 1.12x hand tracked with the default model: by default the estimates bag holds a new
+    URDF at every scale move, each HandState the shape it was posed with, and the scale grows;
+    with --fixed-scale one URDF and the default scale throughout."""
+    from hand_tracker_ros.model.hand import HandModel
+    from hand_tracker_ros.model.shape import HandShape
+    from hand_tracker_ros.model.shape_file import save_shape
+
+    save_shape(HandShape(scale=1.12), tmp_path / 'large.yaml')
+    assert main(['synth', '--out', str(tmp_path / 'seq'), '--motion', 'grasp', '--frames', '12',
+                 '--cameras', '3', '--seed', '1', '--shape', str(tmp_path / 'large.yaml')]) == 0
+    runs = {}
+    for name, args in (('followed', []), ('fixed', ['--fixed-scale'])):
+        out = tmp_path / name
+        with contextlib.redirect_stdout(io.StringIO()):
+            assert main(['track', str(tmp_path / 'seq' / 'bag'), '--out', str(out), '--init',
+                         'ground-truth', *args]) == 0
+        with BagReader(out) as bag:
+            descriptions = [(stamp, msg.data) for _, _, stamp, msg in
+                            bag.decoded(topics=[ROBOT_DESCRIPTION.absolute])]
+            states = [hand_state_from_msg(m) for *_, m in bag.decoded(topics=[STATE_TOPIC])]
+        runs[name] = descriptions, states
+    descriptions, states = runs['followed']
+    assert len(descriptions) > 1 and states[-1].shape.scale > 1.01
+    for stamp, text in descriptions:
+        state = next(s for s in states if s.stamp_ns == stamp)
+        assert text == urdf_text(HandModel.build(state.shape), root_link='world')
+    descriptions, states = runs['fixed']
+    assert len(descriptions) == 1 and {s.shape.scale for s in states} == {1.0}
