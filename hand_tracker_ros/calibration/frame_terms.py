@@ -18,8 +18,6 @@ tracker finds them.
 """
 from __future__ import annotations
 
-import functools
-import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -34,8 +32,8 @@ from hand_tracker_ros.energies.registry import TermsConfig, size_terms
 from hand_tracker_ros.geometry.camera import PinholeCamera
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.shape_jacobian import S, ShapeRig
-from hand_tracker_ros.render.contours import MeshEdges
-from hand_tracker_ros.tracking.problem import read_vertices, weighted_rows
+from hand_tracker_ros.render.contours import model_edges
+from hand_tracker_ros.tracking.problem import FixedTerms
 
 
 class FrameTerms:
@@ -57,21 +55,17 @@ class FrameTerms:
     def __init__(self, model: HandModel, rig: ShapeRig, terms: Sequence[Term],
                  cameras: Sequence[PinholeCamera], observations: FrameObservations,
                  theta: FloatArray) -> None:
-        self.model, self.terms = model, tuple(terms)
+        self.model = model
         posed = model.pose(theta, jacobian=False)
-        views = model_views(posed, _mesh_edges(model), tuple(cameras))
-        context = RoundContext(posed, views, observations, None)
-        self.correspondences = tuple(t.energy.correspond(context) for t in self.terms)
-        # The terms read only these rows (the same contract as the tracker's Problem): only
-        # they are displaced and get Jacobian rows.
-        self._ids = read_vertices(self.terms, self.correspondences,
-                                  model.rest_vertices_m.shape[0], model.fingertip_vertex_ids)
-        self._rig = rig.subset(self._ids)
+        views = model_views(posed, model_edges(model), tuple(cameras))
+        self.fixed = FixedTerms(terms, RoundContext(posed, views, observations, None))
+        # Only the rows the terms read are displaced and get Jacobian rows.
+        self._rig = rig.subset(self.fixed.vertex_ids)
 
     def shaped(self, theta: FloatArray, x: FloatArray, *, jacobian: bool) -> ShapedPose:
         """The hand at ``theta`` (P,) and shape ``x`` (S,); only the rows the terms read are
         displaced and have Jacobian rows (the others are the model's, with zero rows)."""
-        ids = self._ids
+        ids = self.fixed.vertex_ids
         posed = self.model.pose(theta, jacobian=jacobian, jacobian_vertices=ids)
         moved = self._rig.displace(posed._fk, x, jacobian=jacobian)
         vertices = posed.vertices_m.copy()
@@ -87,25 +81,18 @@ class FrameTerms:
     def residuals(self, theta: FloatArray, x: FloatArray, *, jacobian: bool
                   ) -> tuple[FloatArray, FloatArray | None]:
         """Stacked ``sqrt(w_i) r_i`` (M,) and, with ``jacobian``, their ``dr/dz`` (M, P + S)."""
-        shaped = self.shaped(theta, x, jacobian=jacobian)
-        scales = [math.sqrt(term.weight) for term in self.terms]
-        return weighted_rows(self.terms, self.correspondences, scales, shaped, jacobian,
-                             theta.size + S)
+        return self.fixed.rows(self.shaped(theta, x, jacobian=jacobian), jacobian,
+                               theta.size + S)
 
     def squares(self, theta: FloatArray, x: FloatArray) -> dict[str, tuple[float, int]]:
         """Per term: ``|r|^2`` (the term's units squared, without its weight) and the row
         count at ``theta``, ``x``."""
         shaped = self.shaped(theta, x, jacobian=False)
         out = {}
-        for t, c in zip(self.terms, self.correspondences):
+        for t, c in zip(self.fixed.terms, self.fixed.correspondences):
             r = t.energy.residuals(shaped, c)
             out[t.name] = (float(r @ r), int(r.size))
         return out
-
-
-@functools.lru_cache(maxsize=4)
-def _mesh_edges(model: HandModel) -> MeshEdges:
-    return MeshEdges.from_faces(model.faces)
 
 
 def frame_terms(model: HandModel, cameras: Sequence[PinholeCamera],

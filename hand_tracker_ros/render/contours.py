@@ -21,6 +21,7 @@ depth-discontinuity boundary, as an edge detector would see it on a rendered ima
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -33,6 +34,7 @@ from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
 from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.config import param
 from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.render.rasterizer import RenderResult
 
 _MIN_LENGTH_PX = 1e-9
@@ -89,6 +91,14 @@ class MeshEdges:
         for arr in (faces_arr, edges, adjacency, opposite):
             arr.setflags(write=False)
         return cls(faces_arr, edges, adjacency, opposite)
+
+
+@functools.lru_cache(maxsize=8)
+def model_edges(model: HandModel) -> MeshEdges:
+    """The :class:`MeshEdges` of a hand model's mesh, built once per model: the tracker's, the
+    calibration's, and the earlier one a result was posed with after the session rebuilt the
+    model at another scale (``tracking/scale.py``)."""
+    return MeshEdges.from_faces(model.faces)
 
 
 @dataclass(frozen=True, eq=False)

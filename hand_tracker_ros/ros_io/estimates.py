@@ -10,7 +10,6 @@ world frame. Per set, in this order:
 - ``hand/robot_description`` (only when the result's model is not the one of the last set,
   e.g. after the session refined the hand's scale; the first is the caller's to send): the
   URDF at the new shape, which TF, the markers and HandState's shape follow from this set on;
-
 - ``hand/joint_states`` (only when TRACKING): ``PARAM_NAMES`` and ``theta`` (m, rad);
 - ``hand/state`` (every set, LOST included, with the rejected estimate): status, confidence,
   pose, keypoints and fingertips (m), shape, per-term costs (names sorted), iterations and
@@ -111,9 +110,8 @@ class EstimateEncoder:
         self._use(model)
 
     def _use(self, model: HandModel) -> None:
-        """Encode for ``model``: its shape, URDF joints and faces."""
+        """Encode for ``model``: its shape and URDF joints."""
         self.model = model
-        self.faces = model.faces if self.publish_mesh else None
         self.joints = urdf_joints(model, root_link=self.world_frame)
 
     def messages(self, result: TrackResult, processing_time_s: float
@@ -182,10 +180,10 @@ class EstimateEncoder:
                     (0.9, 0.2, 0.2, 1.0), keypoints),
             _marker(kit, head, 'fingertips', 'SPHERE_LIST', FINGERTIP_DIAMETER_M,
                     (0.2, 0.8, 0.2, 1.0), result.posed.fingertips_m)]
-        if self.faces is not None:
+        if self.publish_mesh:
             markers.append(_marker(kit, head, 'mesh', 'TRIANGLE_LIST', 1.0,
                                    (0.95, 0.75, 0.6, 0.6),
-                                   result.posed.vertices_m[np.ravel(self.faces)]))
+                                   result.posed.vertices_m[np.ravel(result.posed.model.faces)]))
         return kit.new('visualization_msgs/msg/MarkerArray', markers=markers)
 
     def tf(self, result: TrackResult) -> Any:

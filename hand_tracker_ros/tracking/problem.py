@@ -59,6 +59,37 @@ class Problem:
                 for t, c in zip(self.terms, correspondences)}
 
 
+class FixedTerms:
+    """Terms with their correspondences found once, in ``context``, and their weighted rows
+    on any hand the terms can read: a :class:`PosedHand` or a
+    :class:`~hand_tracker_ros.core.shaped_pose.ShapedPose` with parameters beyond the pose
+    (the calibration's shape, the online scale). Such a hand needs Jacobian rows only for
+    :attr:`vertex_ids`.
+
+    Parameters
+    ----------
+    terms : sequence of Term
+    context : RoundContext
+        The posed hand (its model's mesh), its views and the observations.
+    """
+
+    def __init__(self, terms: Sequence[Term], context: RoundContext) -> None:
+        self.terms = tuple(terms)
+        self.correspondences = tuple(t.energy.correspond(context) for t in self.terms)
+        model = context.posed.model
+        self.vertex_ids = read_vertices(self.terms, self.correspondences,
+                                        model.rest_vertices_m.shape[0],
+                                        model.fingertip_vertex_ids)
+
+    def rows(self, posed: PosedHand, jacobian: bool, n_params: int
+             ) -> tuple[FloatArray, FloatArray | None]:
+        """Stacked ``sqrt(w_i) r_i`` (M,) at ``posed`` and, with ``jacobian``, their
+        Jacobian (M, ``n_params``) (:func:`weighted_rows`)."""
+        return weighted_rows(self.terms, self.correspondences,
+                             [math.sqrt(t.weight) for t in self.terms], posed, jacobian,
+                             n_params)
+
+
 def read_vertices(terms: Sequence[Term], correspondences: Sequence[object], n_vertices: int,
                   also: IntArray | None = None) -> IntArray:
     """The mesh vertices (K,) int64, ascending and unique, whose Jacobian rows the terms read

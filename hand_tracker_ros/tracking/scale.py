@@ -37,7 +37,6 @@ on hands of the default size lost up to 0.6 mm (README, "Hand shape").
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -52,7 +51,7 @@ from hand_tracker_ros.core.shaped_pose import ShapedPose
 from hand_tracker_ros.core.views import ModelView
 from hand_tracker_ros.model.hand import PosedHand
 from hand_tracker_ros.model.layout import Layout
-from hand_tracker_ros.tracking.problem import read_vertices, weighted_rows
+from hand_tracker_ros.tracking.problem import FixedTerms
 
 # Information below this share of j_s^T j_s: the frame does not see the scale.
 _MIN_RELATIVE_INFO = 1e-6
@@ -117,20 +116,14 @@ class FrameScale:
 
     def __init__(self, terms: Sequence[Term], posed: PosedHand, views: Sequence[ModelView],
                  observations: FrameObservations) -> None:
-        self.terms, self.theta = tuple(terms), posed.theta
-        self.model = posed.model
-        context = RoundContext(posed, tuple(views), observations, None)
-        self.correspondences = tuple(t.energy.correspond(context) for t in self.terms)
-        # Only the rows the terms read are posed with a Jacobian (as the tracker's Problem).
-        self._ids = read_vertices(self.terms, self.correspondences,
-                                  self.model.rest_vertices_m.shape[0],
-                                  self.model.fingertip_vertex_ids)
+        self.theta, self.model = posed.theta, posed.model
+        self.fixed = FixedTerms(terms, RoundContext(posed, tuple(views), observations, None))
 
     def residuals(self, theta: FloatArray, scale: float, *, jacobian: bool
                   ) -> tuple[FloatArray, FloatArray | None]:
         """Stacked ``sqrt(w_i) r_i`` (M,) at pose ``theta`` (P,) and ``scale``, and with
         ``jacobian`` their derivative (M, P + 1) with respect to ``[theta; scale]``."""
-        ids, p = self._ids, theta.size
+        ids, p = self.fixed.vertex_ids, theta.size
         posed = self.model.pose(theta, jacobian=jacobian, jacobian_vertices=ids)
         root = theta[Layout.translation]
         s0 = self.model.shape.scale
@@ -145,8 +138,7 @@ class FrameScale:
             jac[ids, :, p] = (posed.vertices_m[ids] - root) / s0
         shaped = ShapedPose(np.append(theta, scale), vertices, jac,
                             self.model.fingertip_vertex_ids)
-        return weighted_rows(self.terms, self.correspondences,
-                             [math.sqrt(t.weight) for t in self.terms], shaped, jacobian, p + 1)
+        return self.fixed.rows(shaped, jacobian, p + 1)
 
     def estimate(self) -> ScaleEstimate | None:
         """The frame's estimate of the scale (module docstring), linearized at its fit and

@@ -43,7 +43,7 @@ from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
 from hand_tracker_ros.optim.pso import PSOConfig, particle_swarm
-from hand_tracker_ros.render.contours import MeshEdges
+from hand_tracker_ros.render.contours import model_edges
 from hand_tracker_ros.tracking.problem import Problem
 from hand_tracker_ros.tracking.schedule import Round, ScheduleConfig, rounds
 from hand_tracker_ros.tracking.separation import SeparationConfig, Separator
@@ -121,7 +121,6 @@ class HandTracker:
     def _build(self, model: HandModel) -> None:
         """Everything that depends on the model."""
         self.model = model
-        self._edges = MeshEdges.from_faces(model.faces)
         self._terms = build_terms(self.config.terms, model)
         self._separator = Separator(model, self._terms, self.config.separation, self.config.lm)
 
@@ -147,9 +146,7 @@ class HandTracker:
     def views(self, posed: PosedHand) -> tuple[ModelView, ...]:
         """The model ``posed`` (this tracker's or, after :meth:`reshape`, an earlier one)
         rendered into every camera."""
-        edges = self._edges if posed.model is self.model else MeshEdges.from_faces(
-            posed.model.faces)
-        return model_views(posed, edges, self.cameras)
+        return model_views(posed, model_edges(posed.model), self.cameras)
 
     def prepare(self, observations: FrameObservations) -> None:
         """The terms' per-frame work that needs no pose (:class:`PreparesFrames`), for the

@@ -29,7 +29,7 @@ def frame(hand_model: HandModel):
 
 def test_every_image_term_has_rows(frame) -> None:
     terms, theta = frame
-    assert {t.name for t in terms.terms} == set(SIZE_TERMS)
+    assert {t.name for t in terms.fixed.terms} == set(SIZE_TERMS)
     x = terms.model.shape.to_vector()
     squares = terms.squares(theta, x)
     assert all(squares[name][0] > 0.0 and squares[name][1] > 10 for name in ('edges',
