@@ -11,6 +11,9 @@ ignored: the hand may be brighter or darker than the background). Of the two hit
 with the smaller ``|n_i^T (c - u_i)|`` (``c`` the edge pixel centre) becomes the target
 ``t_i = c``. Unmatched points give no residual.
 
+With ``inner_contours`` false only the outer silhouette's points search (the calibration's
+terms, :mod:`hand_tracker_ros.calibration.frame_terms`, which says why).
+
 Weights (square-root weights ``s_i``, Ballan's code adapted):
 
 - image edge type from the observed foreground mask: an edge pixel is *outer* when the mask
@@ -84,6 +87,8 @@ class EdgeEnergyConfig:
                                       low=0.5, high=20.0)
     palm_sqrt_weight: float = param(5.0, 'factor on the square-root weight of palm vertices',
                                     low=0.0, high=100.0)
+    inner_contours: bool = param(True, 'match the inner (depth-discontinuity) contour points '
+                                 'too, not only the outer silhouette\'s')
     outlier_factor: float = param(2.0, 'reject matches farther than this times the bone mean',
                                   low=1.0, high=100.0)
     outlier_floor_px: float = param(3.0, 'floor of the per-bone mean match distance at 640 px '
@@ -268,11 +273,12 @@ class EdgeEnergy:
     def _match(self, view: ModelView, obs: CameraObservation) -> ImageTargets:
         cfg = self.config
         contours = view.contours
-        uv, normals = contours.uv_px, contours.normals_px
+        use = slice(None) if cfg.inner_contours else np.flatnonzero(contours.is_outer)
+        uv, normals = contours.uv_px[use], contours.normals_px[use]
+        ids, is_outer = contours.vertex_ids[use], contours.is_outer[use]
         target, found = search_edges(obs.features.edges, uv, normals, cfg.search_px,
                                      cfg.min_orientation_cos)
         distance = np.abs(np.einsum('ni,ni->n', normals, target - uv))
-        ids = contours.vertex_ids
         part = self.vertex_part[ids]
         floor = cfg.outlier_floor_px * view.camera.width / _REFERENCE_WIDTH_PX
         keep = found.copy()
@@ -283,6 +289,6 @@ class EdgeEnergy:
         probe = cfg.edge_type_probe_px * normals
         mask_at = obs.features.mask_at
         image_outer = mask_at(target + probe) != mask_at(target - probe)
-        mismatch = image_outer != contours.is_outer[keep]
+        mismatch = image_outer != is_outer[keep]
         sqrt_w = sqrt_w * np.where(mismatch, math.sqrt(cfg.mismatch_weight), 1.0)
         return ImageTargets(view.camera, ids[keep], target, sqrt_w, normals)

@@ -6,6 +6,7 @@ import pytest
 
 from hand_tracker_ros.calibration.frame_terms import frame_terms
 from hand_tracker_ros.core.frames import FrameSet
+from hand_tracker_ros.energies.edges import EdgeEnergyConfig
 from hand_tracker_ros.energies.registry import SIZE_TERMS
 from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import P
@@ -30,6 +31,9 @@ def frame(hand_model: HandModel):
 def test_every_image_term_has_rows(frame) -> None:
     terms, theta = frame
     assert {t.name for t in terms.fixed.terms} == set(SIZE_TERMS)
+    # The edges of the outer silhouette only (module docstring); the tracker matches all.
+    edges = next(t for t in terms.fixed.terms if t.name == 'edges')
+    assert not edges.energy.config.inner_contours and EdgeEnergyConfig().inner_contours
     x = terms.model.shape.to_vector()
     squares = terms.squares(theta, x)
     assert all(squares[name][0] > 0.0 and squares[name][1] > 10 for name in ('edges',

@@ -157,6 +157,23 @@ def test_weights_palm_and_mismatch(scene) -> None:
         assert np.mean(offset < 1.5) > 0.7
 
 
+def test_outer_contours_only(scene) -> None:
+    model, rig, edges, truth, _ = scene
+    ctx = _context(scene, truth)
+    both = EdgeEnergy.from_model(EdgeEnergyConfig(), model).correspond(ctx)
+    outer = EdgeEnergy.from_model(EdgeEnergyConfig(inner_contours=False), model).correspond(ctx)
+    inner_seen = False
+    for view, b, o in zip(ctx.views, both.blocks, outer.blocks):
+        outer_ids = view.contours.vertex_ids[view.contours.is_outer]
+        assert o.n_rows > 0 and np.all(np.isin(o.vertex_ids, outer_ids))
+        inner_seen |= bool(np.any(~np.isin(b.vertex_ids, outer_ids)))
+        # An outer point kept by both finds the same image edge.
+        common, ib, io = np.intersect1d(b.vertex_ids, o.vertex_ids, return_indices=True)
+        assert common.size > 0.8 * o.n_rows
+        np.testing.assert_allclose(b.targets_px[ib], o.targets_px[io])
+    assert inner_seen
+
+
 def test_fitting_the_global_pose_reduces_the_error(scene) -> None:
     model, *_, truth, _ = scene
     energy = EdgeEnergy.from_model(EdgeEnergyConfig(), model)
