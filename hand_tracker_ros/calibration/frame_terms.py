@@ -14,17 +14,16 @@ the stacked parameters ``z_k = [theta_k; x]`` (P + S): the terms only read
 the one with respect to ``z_k`` by the chain rule (the test checks it against central
 differences).
 
-Correspondences are found on the model built at ``x0`` (where ``D = 0``), as the tracker
-finds them, except for the edges of inner contours (a finger before the palm,
-``EdgeEnergyConfig.inner_contours`` off). Those are seen only through shading: its fall-off
-at an occluding rim places the image edge off the model's contour, and the offset went into
-the shape: started at the true shape of a 0.9x pinch, the fit drifted
-to a palm 7.4 % too long and fingers 3.8 % too thin on the inner contours alone, 5.5 % and
-3.7 % on all of them (+0.6 % and 3.0 % with the palm's points at the fingers' weight,
-``palm_sqrt_weight`` 1), and stayed within 0.7 % (scale), 0.2 % (palm) and 1.1 %
-(thickness) on the outer silhouette's (README, "Hand shape"). The tracker
-keeps them: they place the fingers before the palm (tracking on the outer ones alone: 3.01
-against 2.26 mm, the mean of seven bags).
+Correspondences are found on the model built at ``x0`` (where ``D = 0``), as the tracker finds
+them, except for the edges of inner contours (a finger before the palm,
+``EdgeEnergyConfig.inner_contours`` off). Those are seen only through shading: its fall-off at
+an occluding rim places the image edge off the model's contour, and the offset went into the
+shape: started at the true shape of a 0.9x pinch, the fit drifted to a palm 7.4 % too long and
+fingers 3.8 % too thin on the inner contours alone, 5.5 % and 3.7 % on all of them (+0.6 % and
+3.0 % with the palm's points at the fingers' weight, ``palm_sqrt_weight`` 1), and stayed within
+0.7 % (scale), 0.2 % (palm) and 1.1 % (thickness) on the outer silhouette's (README, "Hand
+shape"). The tracker keeps them: they place the fingers before the palm (tracking on the outer
+ones alone: 3.01 against 2.26 mm, the mean of seven bags).
 """
 from __future__ import annotations
 

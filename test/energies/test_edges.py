@@ -158,7 +158,7 @@ def test_weights_palm_and_mismatch(scene) -> None:
 
 
 def test_outer_contours_only(scene) -> None:
-    model, rig, edges, truth, _ = scene
+    model, *_, truth, _ = scene
     ctx = _context(scene, truth)
     both = EdgeEnergy.from_model(EdgeEnergyConfig(), model).correspond(ctx)
     outer = EdgeEnergy.from_model(EdgeEnergyConfig(inner_contours=False), model).correspond(ctx)
