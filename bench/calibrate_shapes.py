@@ -7,7 +7,8 @@ shape whose scale the session follows (the default of ``track``), and prints one
 fitted scale, segment, palm and thickness errors, the four mean 3D joint errors, the true and
 calibrated shape's errors once more when tracking starts from the true first pose (``track
 --init ground-truth``: without the automatic start's choice of basin, the difference is the
-shape's) and the calibrate time.
+shape's), the calibrate time and the fields ``calibrate`` warned the sequence does not
+constrain.
 
 Usage: python bench/calibrate_shapes.py OUT_DIR [--cases small:grasp:51 ...]
 (shapes: small = 0.9x, large = 1.1x, longfingers = every segment 8 % longer, default).
@@ -62,8 +63,10 @@ def run_case(root: Path, case: str) -> str:
     _quiet('synth', '--out', str(seq), '--motion', motion, '--frames', '90', '--seed', seed,
            '--shape', str(root / f'{name}.yaml'))
     start = time.perf_counter()
-    _quiet('calibrate', str(seq / 'bag'), '--out', str(seq / 'calibrated.yaml'))
+    printed = _quiet('calibrate', str(seq / 'bag'), '--out', str(seq / 'calibrated.yaml'))
     seconds = time.perf_counter() - start
+    flagged = [line.split()[6] for line in printed.splitlines()
+               if line.startswith('warning: the sequence does not constrain')]
     true, fit = load_shape(seq / 'shape.yaml'), load_shape(seq / 'calibrated.yaml')
     seg = 1e3 * np.abs(fit.finger_lengths_m() - true.finger_lengths_m())
     palm = [1e3 * (fit.scale * getattr(fit, f) - true.scale * getattr(true, f))
@@ -84,7 +87,8 @@ def run_case(root: Path, case: str) -> str:
             f'| {seg.max():.1f} / {seg.mean():.1f} | {palm[0]:+.1f} / {palm[1]:+.1f} '
             f'| {100 * thick:+.1f} % | {" / ".join(f"{e:.2f}" for e in errors)} '
             f'| {errors[3] - errors[2]:+.2f} | {from_truth[0]:.2f} / {from_truth[1]:.2f} '
-            f'({from_truth[1] - from_truth[0]:+.2f}) | {seconds:.0f} s |')
+            f'({from_truth[1] - from_truth[0]:+.2f}) | {seconds:.0f} s '
+            f'| {", ".join(flagged) or "none"} |')
 
 
 def main() -> None:
@@ -98,8 +102,8 @@ def main() -> None:
           'length / width error (mm) | thickness error | mean 3D joint error: default / '
           'default, scale followed / true / calibrated shape (mm) | calibrated - true (mm) | '
           'from the true first pose: true / '
-          'calibrated (difference) (mm) | calibrate |')
-    print('|---|---|---|---|---|---|---|---|---|')
+          'calibrated (difference) (mm) | calibrate | fields flagged as not constrained |')
+    print('|---|---|---|---|---|---|---|---|---|---|')
     for case in args.cases:
         print(run_case(args.out, case), flush=True)
 
