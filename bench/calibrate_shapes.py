@@ -65,8 +65,7 @@ def run_case(root: Path, case: str) -> str:
     start = time.perf_counter()
     printed = _quiet('calibrate', str(seq / 'bag'), '--out', str(seq / 'calibrated.yaml'))
     seconds = time.perf_counter() - start
-    flagged = [line.split()[6] for line in printed.splitlines()
-               if line.startswith('warning: the sequence does not constrain')]
+    flagged = re.findall(r'^warning: the sequence does not constrain (\S+)', printed, re.M)
     true, fit = load_shape(seq / 'shape.yaml'), load_shape(seq / 'calibrated.yaml')
     seg = 1e3 * np.abs(fit.finger_lengths_m() - true.finger_lengths_m())
     palm = [1e3 * (fit.scale * getattr(fit, f) - true.scale * getattr(true, f))
