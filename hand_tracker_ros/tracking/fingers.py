@@ -46,6 +46,26 @@ search``, seeds 9101-9112, twice each) one state per doubtful set tracked 82 % o
 on average against 83 % without. Nor the live search (:mod:`.acquisition`) trying, on every
 other set, a finger state of the fit it follows before its next new start: 62 % against
 63 % (seeds 3, 11, 23, 9104, 9106, 9113-9115, twice each).
+
+**Pinned fingers** (the session's step 4b). A tracked finger can leave its data and settle,
+at a confidence of 0.95-0.99, in a pose the data of its neighbours holds: on a 0.9x hand
+tapping (seed 3433, tracked from the true first pose with the true shape) the resting ring
+finger went within three frames to MCP -30 (hyperextended), PIP 94 and DIP 61 deg while the
+index finger tapped, 46-57 mm off at its tip; refitted from the true finger it stayed there,
+at a higher confidence (0.994 against 0.977) and a lower cost (10300 against 14500; the
+silhouette's halved), so the data prefers the right pose, but no start reached it. Such
+fits press the finger against a limit no ground truth of the synthetic motions reaches:
+over 3600 finger-frames of ten bags (3431-3440, from the true first pose), 130 of the 151
+more than 25 mm off at the tip had MCP at its hyperextension limit or PIP or DIP at full
+flexion (within 2 deg), against 17 of the 3119 within 10 mm. No ground truth does, by
+construction (random motion keeps to 80 % of every range, the scripted poses lie inside);
+straight fingers rest at PIP 0, which is why the extension limits of PIP and DIP do not
+count. :func:`pinned_fingers` finds such fingers (:data:`PINNING_LIMITS`), and
+:func:`unpinning_starts` gives the session the fit with each of them in every
+:data:`FINGER_STATES` and as in the last trusted estimate; they are judged like the
+recovery's hypotheses (the most confident wins, and only if more confident than the fit).
+A real fist pressed to full flexion triggers it too; the fit is then kept when no other
+state is more confident.
 """
 from __future__ import annotations
 
@@ -80,6 +100,41 @@ def finger_states(theta: FloatArray, finger: str, model: HandModel) -> dict[str,
         start[Layout.index(f'{finger}_mcp_abd')] = 0.0
         out[f'{finger}_{name}'] = np.clip(start, model.lower, model.upper)
     return out
+
+
+# The limits a wrongly fitted long finger is pressed against (module docstring, "Pinned
+# fingers"): (flexion joint, side).
+PINNING_LIMITS: tuple[tuple[str, str], ...] = (
+    ('mcp_flex', 'lower'), ('pip_flex', 'upper'), ('dip_flex', 'upper'))
+
+
+def pinned_fingers(theta: FloatArray, model: HandModel, margin_rad: float) -> list[str]:
+    """The long fingers of ``theta`` (P,) with a flexion within ``margin_rad`` of one of
+    :data:`PINNING_LIMITS` (of ``model``'s limits), index first."""
+    pinned = []
+    for finger in FINGERS:
+        for joint, side in PINNING_LIMITS:
+            k = Layout.index(f'{finger}_{joint}')
+            gap = theta[k] - model.lower[k] if side == 'lower' else model.upper[k] - theta[k]
+            if gap <= margin_rad:
+                pinned.append(finger)
+                break
+    return pinned
+
+
+def unpinning_starts(theta: FloatArray, fingers: list[str], model: HandModel,
+                     trusted: FloatArray | None) -> dict[str, FloatArray]:
+    """Starts for a fit whose ``fingers`` are pinned: ``theta`` (P,) with one of them in each
+    of its :data:`FINGER_STATES` and, given ``trusted`` (P,), as it was there; name -> (P,)."""
+    starts = {}
+    for finger in fingers:
+        starts.update(finger_states(theta, finger, model))
+        if trusted is not None:
+            own = Layout.per_finger[finger]
+            start = np.array(theta, np.float64)
+            start[own] = trusted[own]
+            starts[f'{finger}_trusted'] = start
+    return starts
 
 
 def search_fingers(tracker: HandTracker, observations: FrameObservations,

@@ -22,6 +22,11 @@ tracked offline and the same bag played through the graph follow the same rules:
    neighbours' flexions swapped: :func:`.hypotheses.finger_hypotheses`,
    :func:`.hypotheses.swapped_fingers`); the most confident of them gets the full schedule
    and replaces the fit if it is more confident. This costs time only on doubtful frames.
+4b. **Unpin fingers** (``pinned``) when a long finger of the kept fit presses against MCP
+   hyperextension or full PIP or DIP flexion, where wrong fits end and no motion's ground
+   truth goes (:mod:`.fingers`, "Pinned fingers"): the frame is fitted again with each such
+   finger in other states and as in the last trusted estimate, chosen as in step 4, whatever
+   the confidence (such fits score 0.95-0.99). Live, within the step budget, as step 4.
 5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
    ``failure.lost_below``: the search runs on the current frame (with a deadline: the live
    search starts from the last fit, on the next set); a session that may not search resets
@@ -57,6 +62,7 @@ from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.acquisition import Acquisition, AcquisitionConfig
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
+from hand_tracker_ros.tracking.fingers import pinned_fingers, unpinning_starts
 from hand_tracker_ros.tracking.hypotheses import (
     constant_velocity,
     finger_hypotheses,
@@ -85,12 +91,26 @@ class FailureConfig:
 
 
 @dataclass(frozen=True)
+class PinnedConfig:
+    """Step 4b: fits with a finger pressed against a limit are refitted with that finger
+    elsewhere."""
+
+    enabled: bool = param(True, 'refit a fit whose long finger presses against MCP '
+                          'hyperextension or full PIP or DIP flexion')
+    margin_deg: float = param(2.0, 'a flexion this close to such a limit presses against it',
+                              unit='deg', low=0.0, high=30.0)
+    live_every: int = param(3, 'live: refit only every this many sets a finger stays '
+                            'pinned (each refit holds its set up)', low=1, high=1000)
+
+
+@dataclass(frozen=True)
 class SessionConfig:
     """The tracking session's policy."""
 
     predict: bool = param(True, 'start each frame from the constant-velocity prediction')
     recovery: bool = param(True, 'refit doubtful frames from the recovery hypotheses')
     failure: FailureConfig = nested(FailureConfig)
+    pinned: PinnedConfig = nested(PinnedConfig)
     evidence: EvidenceConfig = nested(EvidenceConfig)
     init: InitConfig = nested(InitConfig)
     acquisition: AcquisitionConfig = nested(AcquisitionConfig)
@@ -123,6 +143,7 @@ class TrackingSession:
         self._initial = None if initial_pose is None else np.asarray(initial_pose, np.float64)
         self._search = search
         self._lost = 0
+        self._pinned_sets = 0     # consecutive sets whose fit had a pinned finger (step 4b)
         self._trusted: FloatArray | None = None
         self._stamps: list[int] = []    # stamps (ns) of the tracker's history, when known
         self._acquisition: Acquisition | None = None     # a live search in progress
@@ -148,6 +169,7 @@ class TrackingSession:
         (step 1: from ``initial_pose``, or by the search)."""
         self.tracker.reset(theta)
         self._lost = 0
+        self._pinned_sets = 0
         self._trusted = None if theta is None else np.asarray(theta, np.float64).copy()
         self._stamps = []
         self._acquisition = None
@@ -206,6 +228,19 @@ class TrackingSession:
             judged, spent = self._recover(judged, observations, timings, budget_end)
             iterations += spent
             timings['recovery'] = time.perf_counter() - t0
+        pinned = (pinned_fingers(judged.fit.theta, self.tracker.model,
+                                 np.deg2rad(self.config.pinned.margin_deg))
+                  if self.config.pinned.enabled else [])
+        self._pinned_sets = self._pinned_sets + 1 if pinned else 0
+        if pinned and (not live or self._pinned_sets % self.config.pinned.live_every == 0):
+            t0 = time.perf_counter()
+            budget_end = (time.monotonic() + self.config.acquisition.step_budget_ms / 1e3
+                          if live else None)
+            starts = unpinning_starts(judged.fit.theta, pinned, self.tracker.model,
+                                      self._trusted)
+            judged, spent = self._best_of(judged, starts, observations, timings, budget_end)
+            iterations += spent
+            timings['pinned'] = time.perf_counter() - t0
         searched_now = (judged.confidence < failure.lost_below and self._can_start
                         and self._lost + 1 >= failure.reinit_after)
         if searched_now and self._searches_live(deadline_s, restart=True):
@@ -371,6 +406,14 @@ class TrackingSession:
                            for k, v in turned_hypotheses(self._trusted, model).items()})
         # Last: a live frame's budget ends before them, as before they were added.
         starts.update(swapped_fingers(first.fit.theta, model))
+        return self._best_of(first, starts, observations, timings, budget_end)
+
+    def _best_of(self, first: _Judged, starts: dict[str, FloatArray],
+                 observations: FrameObservations, timings: dict[str, float],
+                 budget_end: float | None = None) -> tuple[_Judged, int]:
+        """The more confident of ``first`` and the fit from the best of ``starts`` (name ->
+        (P,)): each start gets one short round, the most confident of them the full
+        schedule (:meth:`_recover`, whose budget ``budget_end`` is); the iterations spent."""
         quick, spent = None, 0
         reserve_s = first.fit.timings_s.get('fit', 0.0)
         for name, theta in starts.items():

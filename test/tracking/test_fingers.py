@@ -14,8 +14,10 @@ from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measu
 from hand_tracker_ros.tracking.fingers import (
     FINGER_STATES,
     finger_states,
+    pinned_fingers,
     search_fingers,
     short_fit,
+    unpinning_starts,
 )
 from hand_tracker_ros.tracking.initialize import InitConfig
 
@@ -33,6 +35,44 @@ def test_a_finger_state_sets_that_finger_and_nothing_else(hand_model) -> None:
             degrees = FINGER_STATES[name.removeprefix(f'{finger}_')]
             mcp, pip, dip = (np.deg2rad(degrees[f'{finger}_{j}']) for j in FLEXIONS)
             np.testing.assert_allclose(start[own], [mcp, 0.0, pip, dip])   # Layout order
+
+
+def test_a_finger_is_pinned_at_mcp_hyperextension_or_full_pip_or_dip_flexion(hand_model
+                                                                              ) -> None:
+    theta = hand_model.neutral_theta((0.0, 0.0, 0.0))
+    margin = np.deg2rad(2.0)
+    lower, upper = hand_model.lower, hand_model.upper
+    assert pinned_fingers(theta, hand_model, margin) == []
+    straight = theta.copy()                 # PIP and DIP at their extension limits: no pin
+    for finger in FINGERS:
+        straight[Layout.index(f'{finger}_pip_flex')] = lower[Layout.index(f'{finger}_pip_flex')]
+        straight[Layout.index(f'{finger}_dip_flex')] = lower[Layout.index(f'{finger}_dip_flex')]
+    assert pinned_fingers(straight, hand_model, margin) == []
+    for joint, limit, finger in (('mcp_flex', lower, 'ring'), ('pip_flex', upper, 'index'),
+                                 ('dip_flex', upper, 'pinky')):
+        k = Layout.index(f'{finger}_{joint}')
+        for offset_deg, pinned in ((1.9, True), (2.1, False)):
+            at = theta.copy()
+            at[k] = limit[k] + np.deg2rad(offset_deg) * (1.0 if limit is lower else -1.0)
+            assert pinned_fingers(at, hand_model, margin) == ([finger] if pinned else [])
+    both = theta.copy()
+    both[Layout.index('middle_dip_flex')] = upper[Layout.index('middle_dip_flex')]
+    both[Layout.index('index_mcp_flex')] = lower[Layout.index('index_mcp_flex')]
+    assert pinned_fingers(both, hand_model, margin) == ['index', 'middle']
+
+
+def test_unpinning_starts_move_only_the_pinned_fingers(hand_model) -> None:
+    theta = hand_model.neutral_theta((0.01, -0.05, 0.02))
+    trusted = theta + 0.05
+    starts = unpinning_starts(theta, ['ring'], hand_model, trusted)
+    assert set(starts) == {'ring_extended', 'ring_curled', 'ring_closed', 'ring_trusted'}
+    own = np.zeros(Layout.P, bool)
+    own[Layout.per_finger['ring']] = True
+    for start in starts.values():
+        np.testing.assert_array_equal(start[~own], theta[~own])
+    np.testing.assert_array_equal(starts['ring_trusted'][own], trusted[own])
+    assert set(unpinning_starts(theta, ['index', 'ring'], hand_model, None)) == {
+        f'{f}_{s}' for f in ('index', 'ring') for s in FINGER_STATES}
 
 
 @pytest.mark.slow
