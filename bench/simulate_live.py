@@ -10,11 +10,11 @@ session's live deadline (one set period), and the simulated clock advances by th
 time plus ``--observe-share`` of the observation's (the node observes the next set while it
 fits this one; they share one interpreter). The next step takes the newest set by then, as
 :class:`hand_tracker_ros.pipeline.live.LivePipeline` does (its wait for a set about to arrive
-is left out). Per seed it prints the share of the
-sets estimated and tracked, the mean and median 3D joint error of the estimates, and the
-steps that searched or recovered. Run to run it varies with the machine's speed: the budgets
-are wall time, and one run of a seed varies by about 10 points of the tracked share (single
-runs that collapse to a few per cent come and go): compare settings over many seeds and
+is left out). Per seed it prints the share of the sets estimated and tracked, the mean and
+median 3D joint error of the estimates, and the steps that searched, recovered or refitted a
+pinned finger. Run to run it varies with the machine's speed: the budgets are wall time,
+and one run of a seed varies by about 10 points of the tracked share (single runs that
+collapse to a few per cent come and go): compare settings over many seeds and
 ``--repeats``, with ``--vs`` (the second setting runs right after the first on each seed, so
 that both see the same machine), on the summary lines' mean and collapsed runs.
 
@@ -101,14 +101,16 @@ def simulate(seed: int, args: argparse.Namespace, config: PipelineConfig
             errors.append(float(joint_errors_mm(result.posed.keypoints_m,
                                                 frame.keypoints_m).mean()))
             tracked += result.status == TrackStatus.TRACKING
-            slow.update(key for key in ('search', 'recovery') if key in result.timings_s)
+            slow.update(key for key in ('search', 'recovery', 'pinned')
+                        if key in result.timings_s)
         k = max(k + 1, int(clock_s / period_s))
     pipeline.close()
     n = len(frames)
     err = np.array(errors) if errors else np.full(1, np.nan)
     return (f'| {seed} | {len(errors)} ({100 * len(errors) / n:.0f} %) | '
             f'{tracked} ({100 * tracked / n:.0f} %) | {err.mean():.2f} | '
-            f'{np.median(err):.2f} | {slow["search"]} | {slow["recovery"]} |'), tracked / n
+            f'{np.median(err):.2f} | {slow["search"]} | {slow["recovery"]} | '
+            f'{slow["pinned"]} |'), tracked / n
 
 
 def main() -> None:
@@ -136,7 +138,7 @@ def main() -> None:
     configs = {name: from_mapping(PipelineConfig, values) for name, values in settings.items()}
     print(f'{args.frames} sets at {args.fps:g} Hz, start: {args.start}')
     print('| setting | seed | estimated | tracked | mean (mm) | median (mm) | search steps | '
-          'recovery steps |\n|---|---|---|---|---|---|---|---|')
+          'recovery steps | pinned-finger refits |\n|---|---|---|---|---|---|---|---|---|')
     shares: dict[str, list[float]] = {name: [] for name in configs}
     for _ in range(args.repeats):
         for seed in args.seeds:

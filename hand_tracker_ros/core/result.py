@@ -44,7 +44,9 @@ class TrackResult:
         active constraints).
     recovered_from : str
         Where the estimate came from when it did not continue the last one (empty otherwise):
-        a recovery hypothesis, ``'search'``, or ``'initial_pose'`` (a restart there).
+        a recovery hypothesis, a pinned finger's start (e.g. ``'ring_extended'``; step 4b of
+        :mod:`hand_tracker_ros.tracking.session`), ``'search'``, or ``'initial_pose'`` (a
+        restart there).
     lm_statuses : tuple of FitStatus
         Why each Levenberg-Marquardt call of the kept fit stopped (``Fit.lm_statuses``).
     """

@@ -49,23 +49,24 @@ other set, a finger state of the fit it follows before its next new start: 62 % 
 
 **Pinned fingers** (the session's step 4b). A tracked finger can leave its data and settle,
 at a confidence of 0.95-0.99, in a pose the data of its neighbours holds: on a 0.9x hand
-tapping (seed 3433, tracked from the true first pose with the true shape) the resting ring
-finger went within three frames to MCP -30 (hyperextended), PIP 94 and DIP 61 deg while the
-index finger tapped, 46-57 mm off at its tip; refitted from the true finger it stayed there,
-at a higher confidence (0.994 against 0.977) and a lower cost (10300 against 14500; the
-silhouette's halved), so the data prefers the right pose, but no start reached it. Such
-fits press the finger against a limit no ground truth of the synthetic motions reaches:
-over 3600 finger-frames of ten bags (3431-3440, from the true first pose), 130 of the 151
-more than 25 mm off at the tip had MCP at its hyperextension limit or PIP or DIP at full
-flexion (within 2 deg), against 17 of the 3119 within 10 mm. No ground truth does, by
-construction (random motion keeps to 80 % of every range, the scripted poses lie inside);
-straight fingers rest at PIP 0, which is why the extension limits of PIP and DIP do not
-count. :func:`pinned_fingers` finds such fingers (:data:`PINNING_LIMITS`), and
+tapping (``hand-tracker synth --motion tapping --seed 3433 --frames 90`` with ``scale: 0.9``,
+tracked with ``--shape`` that shape, ``--fixed-scale --init ground-truth``) the resting ring
+finger went within three frames to MCP -30 deg (its hyperextension limit), PIP 94 and DIP 61
+while the index finger tapped, 46-57 mm off at its tip; refitted from the true finger it
+stayed there, at a higher confidence (0.994 against 0.977) and a lower cost (10300 against
+14500; the silhouette's halved), so the data prefers the right pose, but no start reached
+it. Such fits press the finger against a limit no ground truth of the synthetic motions
+reaches: over 3600 finger-frames of ten such bags (seeds 3431-3440, from the true first
+pose), 130 of the 151 more than 25 mm off at the tip had MCP at its hyperextension limit or
+PIP or DIP at full flexion (within 2 deg), against 17 of the 3119 within 10 mm. No ground
+truth does, by construction (random motion keeps to 80 % of every range, the scripted poses
+lie inside); straight fingers rest at PIP 0, which is why the extension limits of PIP and
+DIP do not count. :func:`pinned_fingers` finds such fingers (:data:`PINNING_LIMITS`), and
 :func:`unpinning_starts` gives the session the fit with each of them in every
-:data:`FINGER_STATES` and as in the last trusted estimate; they are judged like the
-recovery's hypotheses (the most confident wins, and only if more confident than the fit).
-A real fist pressed to full flexion triggers it too; the fit is then kept when no other
-state is more confident.
+:data:`FINGER_STATES` and as in the last trusted estimate with no finger pinned (the last
+trusted one is often the stuck fit itself); they are judged like the recovery's hypotheses
+(the most confident wins, and only if more confident than the fit). A real fist pressed to
+full flexion triggers it too; the fit is then kept when no other state is more confident.
 """
 from __future__ import annotations
 

@@ -25,8 +25,10 @@ tracked offline and the same bag played through the graph follow the same rules:
 4b. **Unpin fingers** (``pinned``) when a long finger of the kept fit presses against MCP
    hyperextension or full PIP or DIP flexion, where wrong fits end and no motion's ground
    truth goes (:mod:`.fingers`, "Pinned fingers"): the frame is fitted again with each such
-   finger in other states and as in the last trusted estimate, chosen as in step 4, whatever
-   the confidence (such fits score 0.95-0.99). Live, within the step budget, as step 4.
+   finger in other states and as in the last trusted estimate with none pinned, chosen as
+   in step 4, whatever the confidence (such fits score 0.95-0.99). Live, only every
+   ``pinned.live_every``-th set a finger stays pinned, within what is left of the set's
+   step budget (step 4 shares it).
 5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
    ``failure.lost_below``: the search runs on the current frame (with a deadline: the live
    search starts from the last fit, on the next set); a session that may not search resets
@@ -145,6 +147,9 @@ class TrackingSession:
         self._lost = 0
         self._pinned_sets = 0     # consecutive sets whose fit had a pinned finger (step 4b)
         self._trusted: FloatArray | None = None
+        # The last trusted estimate with no finger pinned (step 4b's start; the last trusted
+        # one is often the stuck fit itself).
+        self._unpinned: FloatArray | None = None
         self._stamps: list[int] = []    # stamps (ns) of the tracker's history, when known
         self._acquisition: Acquisition | None = None     # a live search in progress
         self.restarts = 0     # starts (initial pose or search) after losses, in all
@@ -171,6 +176,8 @@ class TrackingSession:
         self._lost = 0
         self._pinned_sets = 0
         self._trusted = None if theta is None else np.asarray(theta, np.float64).copy()
+        self._unpinned = (self._trusted if self._trusted is not None
+                          and not self._pinned(self._trusted) else None)
         self._stamps = []
         self._acquisition = None
         self.status = None
@@ -194,8 +201,9 @@ class TrackingSession:
         ``deadline_s`` (``time.monotonic``) marks a live frame. It caps the frame's main fit
         (the rounds that :meth:`HandTracker.fit` may start); the frame is refitted from the
         recovery hypotheses only below ``failure.lost_below`` (not already below
-        ``failure.recover_below``), within ``acquisition.step_budget_ms``; a search is
-        spread over the sets (:mod:`.acquisition`). Without it, recovery and the one-shot
+        ``failure.recover_below``) and for pinned fingers only every ``pinned.live_every``-th
+        set (step 4b), both within one ``acquisition.step_budget_ms``; a search is spread
+        over the sets (:mod:`.acquisition`). Without it, recovery, step 4b and the one-shot
         search spend what they need.
         """
         start = time.perf_counter()
@@ -213,31 +221,30 @@ class TrackingSession:
                                                    deadline_s), observations)
         iterations = judged.fit.iterations
         failure = self.config.failure
-        # A live frame is refitted only when it would be LOST, and within the acquisition's
-        # step budget: a doubtful frame's full recovery (a dozen fits when this was measured,
+        # A live frame is refitted from the recovery hypotheses only when it would be LOST,
+        # and the refits of a live frame (steps 4 and 4b) share the acquisition's step
+        # budget: a doubtful frame's full recovery (a dozen fits when this was measured,
         # about 0.3 s on 2 cores; 15 short fits and a full one now) skipped the next ten
         # sets, and the larger step to them made those doubtful too (simulated at 30 Hz,
         # tracking from the true pose went that way from 79 % of the sets estimated to 26 %
         # on one seed).
         live = deadline_s is not None
+        budget_end = (time.monotonic() + self.config.acquisition.step_budget_ms / 1e3
+                      if live else None)
         recover_below = failure.lost_below if live else failure.recover_below
         if self.config.recovery and judged.confidence < recover_below:
             t0 = time.perf_counter()
-            budget_end = (time.monotonic() + self.config.acquisition.step_budget_ms / 1e3
-                          if live else None)
             judged, spent = self._recover(judged, observations, timings, budget_end)
             iterations += spent
             timings['recovery'] = time.perf_counter() - t0
-        pinned = (pinned_fingers(judged.fit.theta, self.tracker.model,
-                                 np.deg2rad(self.config.pinned.margin_deg))
-                  if self.config.pinned.enabled else [])
+        pinned = self._pinned(judged.fit.theta)
         self._pinned_sets = self._pinned_sets + 1 if pinned else 0
-        if pinned and (not live or self._pinned_sets % self.config.pinned.live_every == 0):
+        if pinned and (budget_end is None or (
+                self._pinned_sets % self.config.pinned.live_every == 0
+                and time.monotonic() < budget_end)):
             t0 = time.perf_counter()
-            budget_end = (time.monotonic() + self.config.acquisition.step_budget_ms / 1e3
-                          if live else None)
             starts = unpinning_starts(judged.fit.theta, pinned, self.tracker.model,
-                                      self._trusted)
+                                      self._unpinned)
             judged, spent = self._best_of(judged, starts, observations, timings, budget_end)
             iterations += spent
             timings['pinned'] = time.perf_counter() - t0
@@ -331,6 +338,7 @@ class TrackingSession:
         """One set of a live search: its best fit, TRACKING once confident (the search
         ends), LOST before."""
         assert self._acquisition is not None
+        self._pinned_sets = 0
         t0 = time.perf_counter()
         fit = self._acquisition.step(observations)
         timings['search'] = time.perf_counter() - t0
@@ -378,6 +386,13 @@ class TrackingSession:
             timings[key] = timings.get(key, 0.0) + value
         return fit
 
+    def _pinned(self, theta: FloatArray) -> list[str]:
+        """The long fingers of ``theta`` (P,) step 4b refits (none when it is off)."""
+        if not self.config.pinned.enabled:
+            return []
+        return pinned_fingers(theta, self.tracker.model,
+                              np.deg2rad(self.config.pinned.margin_deg))
+
     def _judge(self, name: str, fit: Fit, observations: FrameObservations) -> _Judged:
         evidence = measure(fit.views, observations, fit.posed.fingertips_m,
                            self.config.evidence)
@@ -412,8 +427,9 @@ class TrackingSession:
                  observations: FrameObservations, timings: dict[str, float],
                  budget_end: float | None = None) -> tuple[_Judged, int]:
         """The more confident of ``first`` and the fit from the best of ``starts`` (name ->
-        (P,)): each start gets one short round, the most confident of them the full
-        schedule (:meth:`_recover`, whose budget ``budget_end`` is); the iterations spent."""
+        (P,)), and the iterations spent: each start gets one short round and the most
+        confident of them the full schedule, within ``budget_end`` as :meth:`_recover`
+        says."""
         quick, spent = None, 0
         reserve_s = first.fit.timings_s.get('fit', 0.0)
         for name, theta in starts.items():
@@ -447,6 +463,8 @@ class TrackingSession:
         if judged.confidence >= self.config.failure.lost_below:
             self._lost = 0
             self._trusted = judged.fit.theta.copy()
+            if not self._pinned(self._trusted):
+                self._unpinned = self._trusted
             return TrackStatus.TRACKING
         self._lost += 1
         LOG.debug('frame lost (confidence %.2f, %d in a row)', judged.confidence, self._lost)
