@@ -239,9 +239,9 @@ class TrackingSession:
             timings['recovery'] = time.perf_counter() - t0
         pinned = self._pinned(judged.fit.theta)
         self._pinned_sets = self._pinned_sets + 1 if pinned else 0
-        if pinned and (budget_end is None or (
-                self._pinned_sets % self.config.pinned.live_every == 0
-                and time.monotonic() < budget_end)):
+        live_turn = (self._pinned_sets % self.config.pinned.live_every == 0
+                     and budget_end is not None and time.monotonic() < budget_end)
+        if pinned and (not live or live_turn):
             t0 = time.perf_counter()
             starts = unpinning_starts(judged.fit.theta, pinned, self.tracker.model,
                                       self._unpinned)
