@@ -1,6 +1,8 @@
 """Silhouette term Sil: closest data-silhouette pixel, point-to-ray residuals, fitting."""
 from __future__ import annotations
 
+import dataclasses
+
 import cv2
 import numpy as np
 import pytest
@@ -12,6 +14,7 @@ from hand_tracker_ros.core.views import model_views
 from hand_tracker_ros.energies.silhouette import (
     SilhouetteConfig,
     SilhouetteEnergy,
+    floods,
     nearest_point,
     outside_targets,
 )
@@ -320,6 +323,41 @@ def test_data_to_model_rows_of_the_hand_are_kept_by_the_other_views(scene) -> No
     unchecked = _data_rows(scene, theta, obs, views=False)
     assert unchecked > 50
     assert _data_rows(scene, theta, obs, views=True) >= 0.9 * unchecked
+
+
+def _camera_rows(scene, observations: FrameObservations, config: SilhouetteConfig
+                 ) -> list[int]:
+    """Data-to-model rows per camera at the true pose."""
+    ctx = _context(scene, scene[3], observations)
+    model_rows = SilhouetteEnergy(dataclasses.replace(config, data_to_model_weight=0.0))
+    corr = SilhouetteEnergy(config).correspond(ctx)
+    data = slice(model_rows.correspond(ctx).n_residuals, None)
+    return [int(np.all(np.isclose(corr.ray_origins_m[data], view.camera.center_world),
+                       axis=1).sum()) for view in ctx.views]
+
+
+def test_a_camera_whose_mask_floods_the_hand_gives_no_data_to_model_rows(scene) -> None:
+    # A skin-coloured background filling camera 0's left half merges with the hand: its
+    # boundary crosses the hand, and rows there would pull the fingers onto it.
+    _, _, _, _, obs = scene
+    features = obs.cameras[0].features
+    rows, cols = np.nonzero(features.mask)
+    flooded = features.mask.copy()
+    flooded[:, :int(np.median(cols))] = True
+    observations = FrameObservations(0, (CameraObservation(
+        obs.cameras[0].camera, _with_mask(features, flooded), SalientDetections.empty()),
+        obs.cameras[1]))
+    config = SilhouetteConfig(max_points_per_camera=10000, data_to_model_views=False)
+    unchecked = _camera_rows(scene, observations,
+                             dataclasses.replace(config, data_to_model_max_foreground=1000.0))
+    assert unchecked[0] > 20
+    assert _camera_rows(scene, observations, config) == [0, unchecked[1]]
+    # The clean mask, about the model's own area, does not flood it.
+    ctx = _context(scene, _perturbed(scene[3]))
+    assert not floods(ctx.views[0], features, config.data_to_model_reach,
+                      config.data_to_model_max_foreground)
+    assert floods(ctx.views[0], observations.cameras[0].features, config.data_to_model_reach,
+                  config.data_to_model_max_foreground)
 
 
 def test_true_pose_has_few_small_residuals(scene) -> None:
