@@ -64,7 +64,7 @@ its true pose, the previous frame at its truth: mean error after the fit 1.48 ->
 bags better by more than 0.1 mm, none worse. Keeping instead the rows of uncovered
 foreground components that stay small and inside the grown box, in every camera, gave 1.47
 (9 better, 9 worse): it also dropped rows of clean cameras, and left the flooded cameras'
-rows of small components between the fingers.
+rows of small foreground islands near the hand.
 
 Data-to-model rows are checked against the other views (``data_to_model_views``). Skin-
 coloured clutter touching the hand in one camera is uncovered foreground there, and its rows
