@@ -396,10 +396,14 @@ def floods(view: ModelView, features: CameraFeatures, reach: float, max_ratio: f
     the image and the mask's region of interest), more than ``max_ratio`` times the model's
     silhouette area (px)."""
     outline = view.contours.uv_px[view.contours.is_outer]
-    outline = outline[np.all(np.isfinite(outline), axis=1)]
-    if not outline.size:
+    # Column by column, as in tracking/roi.py: numpy's reductions along axis 0 of an (N, 2)
+    # array cost about 20 of this test's 40 us per camera and round.
+    u, v = outline[:, 0], outline[:, 1]
+    seen = np.isfinite(u) & np.isfinite(v)
+    u, v = u[seen], v[seen]
+    if not u.size:
         return False
-    (lo_u, lo_v), (hi_u, hi_v) = outline.min(axis=0), outline.max(axis=0)
+    lo_u, lo_v, hi_u, hi_v = u.min(), v.min(), u.max(), v.max()
     grow_u, grow_v = reach * (hi_u - lo_u), reach * (hi_v - lo_v)
     fu0, fv0, fu1, fv1 = features.roi_px
     u0, v0 = max(int(lo_u - grow_u), fu0), max(int(lo_v - grow_v), fv0)
