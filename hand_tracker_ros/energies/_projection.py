@@ -80,8 +80,10 @@ class ImageTargets:
 
 
 @numba.njit(cache=True, nogil=True)
-def _rows(vertices, vertices_jac, ids, R, t, intrinsics, dist8, targets, s, normals, line,
-          jacobian):  # pragma: no cover - compiled
+def _rows(vertices: np.ndarray, vertices_jac: np.ndarray, ids: np.ndarray, R: np.ndarray,
+          t: np.ndarray, intrinsics: np.ndarray, dist8: np.ndarray, targets: np.ndarray,
+          s: np.ndarray, normals: np.ndarray, line: bool, jacobian: bool
+          ) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
     """Rows of one block: project, distort, chain rule and weight per target in one pass.
 
     numba because the numpy form (``PinholeCamera.project_jacobian`` then two einsums per
@@ -134,8 +136,9 @@ def _block_rows(posed: PosedHand, block: ImageTargets, jacobian: bool
     if not isinstance(camera, PinholeCamera):
         return _camera_rows(posed, block, camera, jacobian)
     line = block.normals_px is not None
-    normals = block.normals_px if line else np.zeros((0, 2))
+    normals = block.normals_px if block.normals_px is not None else np.zeros((0, 2))
     jac = posed.vertices_jac if jacobian else np.zeros((0, 3, int(np.size(posed.theta))))
+    assert jac is not None, 'posed without its Jacobian'
     intrinsics = np.array([camera.K[0, 0], camera.K[1, 1], camera.K[0, 2], camera.K[1, 2]])
     r, J = _rows(posed.vertices_m, jac, block.vertex_ids, camera.R_cam_world,
                  camera.T_cam_world[:3, 3], intrinsics, camera.dist8, block.targets_px,
@@ -159,6 +162,7 @@ def _camera_rows(posed: PosedHand, block: ImageTargets, camera: Camera, jacobian
         g = s[:, None, None] * duv_dX                              # (N, 2, 3)
     if not jacobian:
         return r, None
+    assert posed.vertices_jac is not None, 'posed without its Jacobian'
     J = np.einsum('nrc,ncp->nrp', g, posed.vertices_jac[ids]).reshape(r.size, -1)
     return r, J
 
@@ -183,4 +187,4 @@ def image_linearize(posed: PosedHand, blocks: Sequence[ImageTargets]
     if not parts:
         return np.zeros(0), np.zeros((0, n_params))
     return (np.concatenate([r for r, _ in parts]),
-            np.vstack([J for _, J in parts]))
+            np.vstack([J for _, J in parts if J is not None]))   # all, with jacobian=True

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
+from hand_tracker_ros._typing import BoolArray, Float32Array, FloatArray, Int32Array, IntArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.core.observations import CameraObservation
@@ -111,7 +111,7 @@ class EdgeCorrespondences:
 
 
 @numba.njit(cache=True, nogil=True)
-def _walk(edges: BoolArray, orient: FloatArray, u0: int, v0: int, pu: float, pv: float,
+def _walk(edges: BoolArray, orient: Float32Array, u0: int, v0: int, pu: float, pv: float,
           du: float, dv: float, max_t: float, min_cos: float) -> tuple[int, int, bool]:
     """First compatible edge pixel crossed by ``p + t d``, ``0 <= t <= max_t``."""
     height, width = edges.shape
@@ -136,7 +136,7 @@ def _walk(edges: BoolArray, orient: FloatArray, u0: int, v0: int, pu: float, pv:
 
 
 @numba.njit(cache=True, nogil=True)
-def _search(edges: BoolArray, orient: FloatArray, u0: int, v0: int, uv: FloatArray,
+def _search(edges: BoolArray, orient: Float32Array, u0: int, v0: int, uv: FloatArray,
             normals: FloatArray, max_t: float, min_cos: float) -> tuple[FloatArray, BoolArray]:
     """Nearer of the forward/backward hits of every point.
 
@@ -232,7 +232,7 @@ class EdgeEnergy:
 
     name = 'edges'
 
-    def __init__(self, config: EdgeEnergyConfig, vertex_part: IntArray) -> None:
+    def __init__(self, config: EdgeEnergyConfig, vertex_part: IntArray | Int32Array) -> None:
         self.config = config
         self.vertex_part = np.asarray(vertex_part, dtype=np.int64)
 

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_tracker_ros._typing import BoolArray, FloatArray, IntArray
+from hand_tracker_ros._typing import BoolArray, FloatArray, Int32Array, IntArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.energies._projection import (
@@ -139,7 +139,7 @@ class FlowEnergy:
 
     name = NAME
 
-    def __init__(self, config: FlowEnergyConfig, vertex_part: IntArray) -> None:
+    def __init__(self, config: FlowEnergyConfig, vertex_part: IntArray | Int32Array) -> None:
         self.config = config
         self.vertex_part = np.asarray(vertex_part, dtype=np.int64)
 

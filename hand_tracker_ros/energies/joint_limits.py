@@ -398,6 +398,7 @@ class JointLimitsEnergy:
         turn = np.cross(axes[None, :, :], bone[:, None, :])             # (N, P, 3)
         turn[:, :3, :] = 0.0
         turn *= kinematics.MOVES.T[c.frame_bone][:, :, None]
+        assert posed.keypoints_jac is not None, 'posed without its Jacobian'
         world = posed.keypoints_jac[c.child_kp] - posed.keypoints_jac[c.parent_kp]
         jac = np.einsum('nji,njk->nik', frames, world - turn.transpose(0, 2, 1))
         return r.reshape(-1), jac.reshape(-1, P)

@@ -203,7 +203,8 @@ def _reach_px(max_distance_px: float) -> int:
 # a dozen numpy calls with their temporaries per camera and round for a few hundred points
 # (0.6 -> 0.05 ms per camera); the test compares it with the numpy form.
 @numba.njit(cache=True, nogil=True)
-def _outside_targets(uv, nearest, u0, v0, max_distance, tolerance):  # pragma: no cover
+def _outside_targets(uv: np.ndarray, nearest: np.ndarray, u0: int, v0: int, max_distance: float,
+                     tolerance: float) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
     height, width = nearest.shape
     matched = np.zeros(uv.shape[0], dtype=np.bool_)
     target = np.zeros((uv.shape[0], 2))
@@ -226,7 +227,8 @@ def _outside_targets(uv, nearest, u0, v0, max_distance, tolerance):  # pragma: n
 
 
 @numba.njit(cache=True, nogil=True)
-def _near_foreground(mask, u0, v0, uv, radius, keep):  # pragma: no cover - compiled
+def _near_foreground(mask: np.ndarray, u0: int, v0: int, uv: np.ndarray, radius: int,
+                     keep: np.ndarray) -> None:  # pragma: no cover - compiled
     """Clear ``keep[i]`` where ``uv[i]`` (full-image px) falls inside the mask window
     (origin ``u0, v0``) with no foreground pixel within ``radius`` (a square); points outside
     the window or behind the camera (NaN) are not judged."""
@@ -299,7 +301,8 @@ class SilhouetteEnergy:
             scales += [float(np.sqrt(self.config.data_to_model_weight))] * len(cameras)
         # One back-projection per camera for both directions, one ray fit for all rows.
         n_cam = len(cameras)
-        origins, dirs = [None] * len(pairs), [None] * len(pairs)
+        origins: list[FloatArray] = [np.empty((0, 3))] * len(pairs)   # each set below
+        dirs: list[FloatArray] = [np.empty((0, 3))] * len(pairs)
         for c, view in enumerate(context.views):
             blocks = pairs[c::n_cam]
             origin, rays = view.camera.rays(np.vstack([target for _, target in blocks]))
@@ -350,6 +353,7 @@ class SilhouetteEnergy:
                   ) -> tuple[FloatArray, FloatArray]:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per parameter unit)."""
         c = correspondences
+        assert posed.vertices_jac is not None, 'posed without its Jacobian'
         jac = np.einsum('ni,nip->np', c.normals, posed.vertices_jac[c.vertex_ids])
         return self.residuals(posed, c), jac.reshape(c.n_residuals, np.size(posed.theta))
 
@@ -411,11 +415,12 @@ def floods(view: ModelView, features: CameraFeatures, reach: float, max_ratio: f
     if u1 <= u0 or v1 <= v0:
         return False
     foreground = np.count_nonzero(features.mask[v0 - fv0:v1 - fv0, u0 - fu0:u1 - fu0])
-    return foreground > max_ratio * np.count_nonzero(view.raster.mask)
+    return bool(foreground > max_ratio * np.count_nonzero(view.raster.mask))
 
 
 @numba.njit(cache=True, nogil=True)
-def _nearest(queries, points, max_sq):  # pragma: no cover - compiled
+def _nearest(queries: np.ndarray, points: np.ndarray,
+             max_sq: float) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
     # Points sorted by u: a query scans only those within the reach in u. Among equally near
     # points the lowest index wins, as in a scan of all of them in order.
     order = np.argsort(points[:, 0], kind='mergesort')

@@ -148,5 +148,6 @@ class TemporalEnergy:
         """Residuals ``r (M,)`` (m) and analytic Jacobian ``J (M, P)`` (m per unit)."""
         if correspondences.keypoints_m.shape[0] == 0:
             return np.zeros(0), np.zeros((0, P))
+        assert posed.keypoints_jac is not None, 'posed without its Jacobian'
         return (self.residuals(posed, correspondences),
                 posed.keypoints_jac.reshape(-1, P))

@@ -204,8 +204,9 @@ class VolumeCollisionEnergy:
             delta = centers[a] - centers[b]                                    # (K, 3)
             u = delta / np.maximum(np.linalg.norm(delta, axis=1), 1e-12)[:, None]
             # d(c_a - c_b)/dtheta = (W_a - W_b) dS/dtheta, one (K, S) x (S, 3P) product.
-            d_delta = (self.weights[a] - self.weights[b]) @ posed.sphere_centers_jac.reshape(
-                -1, 3 * P)
+            centers_jac = posed.sphere_centers_jac
+            assert centers_jac is not None, 'posed without its Jacobian'
+            d_delta = (self.weights[a] - self.weights[b]) @ centers_jac.reshape(-1, 3 * P)
             jac[active] = -np.einsum('kc,kcp->kp', u, d_delta.reshape(-1, 3, P))
         return np.maximum(r, 0.0), jac
 

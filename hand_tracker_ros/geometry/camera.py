@@ -88,7 +88,8 @@ def _check_rigid(cam: str, T: FloatArray) -> None:
 
 
 @numba.njit(cache=True, nogil=True)
-def distort_point(x, y, dist8):  # pragma: no cover - compiled
+def distort_point(x: float, y: float, dist8: np.ndarray
+                  ) -> tuple[float, float, float, float, float, float]:  # pragma: no cover
     """Distorted normalised coordinates ``(x_d, y_d)`` of ``(x, y)`` (module docstring), and
     the pieces ``(f, r2, num, den)`` that :func:`pixel_jacobian` reuses. ``dist8`` is
     ``PinholeCamera.dist8``. The one copy of the distortion model: every projection kernel
@@ -105,7 +106,9 @@ def distort_point(x, y, dist8):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def pixel_jacobian(x, y, inv_z, f, r2, num, den, fx, fy, R, dist8, out):  # pragma: no cover
+def pixel_jacobian(x: float, y: float, inv_z: float, f: float, r2: float, num: float,
+                   den: float, fx: float, fy: float, R: np.ndarray, dist8: np.ndarray,
+                   out: np.ndarray) -> None:  # pragma: no cover - compiled
     """Write ``d(u, v)/dX_world`` (2, 3) of one point into ``out``.
 
     ``x, y`` are its normalised coordinates, ``inv_z = 1 / p_z`` and ``f, r2, num, den`` the
@@ -129,7 +132,9 @@ def pixel_jacobian(x, y, inv_z, f, r2, num, den, fx, fy, R, dist8, out):  # prag
 
 
 @numba.njit(cache=True, nogil=True)
-def _project(points, R, t, K, dist8, jacobian):  # pragma: no cover - compiled
+def _project(points: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray, dist8: np.ndarray,
+             jacobian: bool
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
     """Pixel coordinates (N, 2), depths (N,) and, with ``jacobian``, ``d(u, v)/dX`` (N, 2, 3)
     (else (0, 2, 3)) of world points (N, 3); NaN behind the camera.
 
@@ -361,5 +366,5 @@ class PinholeCamera:
         xy = cv2.undistortPoints(uv.reshape(-1, 1, 2), self.K, self._dist8, None, None, None,
                                      _UNDISTORT_CRITERIA).reshape(-1, 2)
         d_cam = np.column_stack([xy, np.ones(len(xy))])
-        d_cam /= np.linalg.norm(d_cam, axis=1, keepdims=True)
+        d_cam = d_cam / np.linalg.norm(d_cam, axis=1, keepdims=True)
         return self.center_world, d_cam @ self.R_cam_world

@@ -262,7 +262,7 @@ def _pairs_kernel(verts: np.ndarray, faces: np.ndarray, order: np.ndarray, start
                         ids[m] = f
                         side[m] = s
                         m += 1
-            axis = np.argmax(bhi - blo)
+            axis = int(np.argmax(bhi - blo))
             out, n_out = _sweep_part_pair(verts, faces, lo, hi, ids[:m], side[:m], axis,
                                           out, n_out)
     return out[:n_out].copy()
@@ -282,7 +282,7 @@ def face_parts(faces: Int32Array, vertex_part: Int32Array) -> Int32Array:
     return np.where(vp[:, 1] == vp[:, 2], vp[:, 1], vp[:, 0]).astype(np.int32)
 
 
-def _check_mesh(vertices_m: FloatArray, faces: Int32Array, face_part: Int32Array,
+def _check_mesh(vertices_m: FloatArray, faces: Int32Array | IntArray, face_part: Int32Array,
                 adjacent_parts: BoolArray) -> None:
     check_shape('vertices_m', vertices_m, (None, 3))
     check_finite('vertices_m', vertices_m)
@@ -301,15 +301,15 @@ def _blocked(adjacent_parts: BoolArray) -> BoolArray:
     return adj | adj.T | np.eye(len(adj), dtype=bool)
 
 
-def intersecting_pairs(vertices_m: FloatArray, faces: Int32Array, face_part: Int32Array,
-                       adjacent_parts: BoolArray) -> IntArray:
+def intersecting_pairs(vertices_m: FloatArray, faces: Int32Array | IntArray,
+                       face_part: Int32Array, adjacent_parts: BoolArray) -> IntArray:
     """Intersecting triangle pairs between non-adjacent parts.
 
     Parameters
     ----------
     vertices_m : (V, 3) float64
         Deformed mesh.
-    faces : (F, 3) int32
+    faces : (F, 3) int32 or int64
     face_part : (F,) int32
         Part of each face (see :func:`face_parts`), in ``[0, B)``.
     adjacent_parts : (B, B) bool

@@ -208,6 +208,8 @@ class HandModel:
         skin_t = fk.bone_transforms @ self._rest_inv
         kp_bones = np.asarray(KEYPOINT_BONES)
         keypoints = kinematics.transform_points(fk, kp_bones, self.keypoint_local_m)
+        verts_jac: FloatArray | None
+        kp_jac: FloatArray | None
         if jacobian:
             verts, verts_jac = skin_with_jacobian(
                 skin_t, self.rest_vertices_m, self.influence_bones, self.influence_weights,
@@ -239,7 +241,8 @@ def _build(shape: HandShape) -> HandModel:
         pills=sm.pills, wedges=sm.wedges, rest=rest,
         influence_bones=mesh.influence_bones, influence_weights=mesh.influence_weights,
         bone_dofs=kinematics.bone_revolute_dofs(),
-        keypoint_local_m=kinematics.keypoint_local(rest), _rest_inv=np.linalg.inv(rest_t))
+        keypoint_local_m=kinematics.keypoint_local(rest),
+        _rest_inv=np.asarray(np.linalg.inv(rest_t), np.float64))
     _readonly(model.faces, model.rest_vertices_m, model.skin_weights, model.vertex_part,
               model.adjacent_parts, model.fingertip_vertex_ids, model.lower, model.upper,
               model.sphere_radii_m, model.sphere_part, model.sphere_local_m,

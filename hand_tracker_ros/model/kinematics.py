@@ -83,7 +83,7 @@ class FKResult:
 
 
 @numba.njit(cache=True, nogil=True)
-def _rot(axis, angle):  # pragma: no cover - compiled
+def _rot(axis: int, angle: float) -> np.ndarray:  # pragma: no cover - compiled
     """Rotation (3, 3) by ``angle`` about the coordinate axis 0 (x), 1 (y) or 2 (z)."""
     c, s = math.cos(angle), math.sin(angle)
     r = np.zeros((3, 3))
@@ -94,8 +94,9 @@ def _rot(axis, angle):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _fk(theta, rest_rot, base_m, lengths_m, n_bones, finger_dof0, finger_bones, ry, rz,
-        rx):  # pragma: no cover - compiled
+def _fk(theta: np.ndarray, rest_rot: np.ndarray, base_m: np.ndarray, lengths_m: np.ndarray,
+        n_bones: int, finger_dof0: np.ndarray, finger_bones: np.ndarray, ry: int, rz: int,
+        rx: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
     """Bone transforms (B, 4, 4), hinge axes (P, 3) and pivots (P, 3); see the module docstring.
 
     numba because FK runs at every pose (some 30 times per frame) and the numpy form spent
@@ -158,7 +159,8 @@ def transform_points(fk: FKResult, bones: IntArray, local_m: FloatArray) -> Floa
 
 
 @numba.njit(cache=True, nogil=True)
-def _points_jacobian(axes, pivots, moves, bones, points):  # pragma: no cover - compiled
+def _points_jacobian(axes: np.ndarray, pivots: np.ndarray, moves: np.ndarray, bones: np.ndarray,
+                     points: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     """:func:`points_jacobian` (N, 3, P) from the hinge axes (P, 3), pivots (P, 3) m, the
     ``moves`` table (P, B) bool, the bones (N,) int64 and the points (N, 3) m.
 

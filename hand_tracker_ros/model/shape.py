@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -24,8 +25,8 @@ from hand_tracker_ros.errors import ConfigError
 # finger proportions against published phalanx measurements (all within 2.6 %, the thumb
 # within 1.2 %).
 _HAND_LENGTH_M = 0.19
-_RATIOS = {
-    'palm': 0.373,                       # middle metacarpal: wrist to middle MCP
+_PALM_RATIO = 0.373                      # middle metacarpal: wrist to middle MCP
+_RATIOS: dict[str, tuple[float, float, float]] = {
     'thumb': (0.251, 0.196, 0.158),      # metacarpal, proximal, distal
     'index': (0.265, 0.143, 0.097),      # proximal, middle, distal
     'middle': (0.277, 0.170, 0.108),
@@ -60,7 +61,7 @@ class HandShape:
     """
 
     scale: float = 1.0
-    palm_length_m: float = _RATIOS['palm'] * _HAND_LENGTH_M
+    palm_length_m: float = _PALM_RATIO * _HAND_LENGTH_M
     palm_width_m: float = 0.056
     thumb_m: tuple[float, float, float] = _lengths('thumb')
     index_m: tuple[float, float, float] = _lengths('index')
@@ -99,7 +100,7 @@ class HandShape:
                    middle_m=(v[9], v[10], v[11]), ring_m=(v[12], v[13], v[14]),
                    pinky_m=(v[15], v[16], v[17]), radius_scale=v[18])
 
-    def replace(self, **changes: object) -> HandShape:
+    def replace(self, **changes: Any) -> HandShape:
         """Copy with some fields changed (``dataclasses.replace``)."""
         return dataclasses.replace(self, **changes)
 

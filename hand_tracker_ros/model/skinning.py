@@ -26,7 +26,8 @@ from hand_tracker_ros._typing import FloatArray, Int32Array, IntArray
 
 
 @numba.njit(cache=True, nogil=True)
-def _skin(transforms, rest, bones, weights):  # pragma: no cover - compiled
+def _skin(transforms: np.ndarray, rest: np.ndarray, bones: np.ndarray,
+          weights: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     n_v, n_i = bones.shape
     out = np.zeros((n_v, 3))
     for v in range(n_v):
@@ -42,8 +43,10 @@ def _skin(transforms, rest, bones, weights):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _skin_jacobian(transforms, rest, bones, weights, bone_dofs, axes, pivots, n_p,
-                   rows):  # pragma: no cover - compiled
+def _skin_jacobian(transforms: np.ndarray, rest: np.ndarray, bones: np.ndarray,
+                   weights: np.ndarray, bone_dofs: np.ndarray, axes: np.ndarray,
+                   pivots: np.ndarray, n_p: int, rows: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
     n_v, n_i = bones.shape
     out = _skin(transforms, rest, bones, weights)
     jac = np.zeros((n_v, 3, n_p))
@@ -72,7 +75,7 @@ def _skin_jacobian(transforms, rest, bones, weights, bone_dofs, axes, pivots, n_
 
 
 @numba.njit(cache=True, nogil=True)
-def _normals(verts, faces):  # pragma: no cover - compiled
+def _normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:  # pragma: no cover
     normals = np.zeros_like(verts)
     for f in range(faces.shape[0]):
         i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]

@@ -98,7 +98,7 @@ def _visual(link: ET.Element, xyz: np.ndarray, rpy: np.ndarray, geometry: str,
             **size: str) -> None:
     visual = ET.SubElement(link, 'visual')
     ET.SubElement(visual, 'origin', xyz=_vec(xyz), rpy=_vec(rpy))
-    ET.SubElement(ET.SubElement(visual, 'geometry'), geometry, **size)
+    ET.SubElement(ET.SubElement(visual, 'geometry'), geometry, attrib=size)
     ET.SubElement(visual, 'material', name='skin')
 
 

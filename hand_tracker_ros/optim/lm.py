@@ -193,6 +193,7 @@ def levenberg_marquardt(fun: ResidualFunction, x0: FloatArray, lower: FloatArray
             x = x + step
             r, J = r_new, J_new
             if not last:
+                assert J is not None   # evaluated with its Jacobian unless last
                 A, g = J.T @ J, J.T @ r
             converged = (cost - cost_new) <= config.ftol * cost
             cost = cost_new

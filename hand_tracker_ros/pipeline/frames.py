@@ -117,7 +117,9 @@ def frame_sets(bag: str | Path, rig: CameraRig, *, sync: SyncConfig = SyncConfig
     names = rig.names
     synchronizer = ApproximateTimeSync(names, sync)
     with BagReader(bag) as reader:
-        topics = {camera_image_topic(reader.topics, n): n for n in names}
+        # A camera without images gives no topic, and so no complete set.
+        topics = {t: n for n in names
+                  if (t := camera_image_topic(reader.topics, n)) is not None}
         for topic, msgtype, stamp, raw in reader.intact_messages(topics=list(topics)):
             try:
                 image = image_from_msg(reader.deserialize(raw, msgtype, topic=topic),

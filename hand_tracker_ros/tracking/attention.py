@@ -80,6 +80,7 @@ class Attention:
             return ObservationPlan.everything()
         self._tracked += 1
         posed = session.tracker.last_posed
+        assert posed is not None     # a tracked session has an estimate
         rois = hand_rois(posed, self.cameras, self.config.roi) if self.config.use_roi else None
         return ObservationPlan(rois, detect)
 

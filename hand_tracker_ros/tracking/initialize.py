@@ -27,11 +27,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.ndimage
 
-from hand_tracker_ros._typing import FloatArray
+from hand_tracker_ros._typing import BoolArray, FloatArray
 from hand_tracker_ros.config import param
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.errors import HandTrackerError, ShapeError
 from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.model.hand import HandModel
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.model.poses import RELAXED_DEG, with_joints_deg
 from hand_tracker_ros.tracking.evidence import CoarseMasks, silhouette_iou
@@ -71,7 +72,7 @@ def _view_centre(cameras: Sequence[Camera]) -> tuple[FloatArray, float]:
         P = np.eye(3) - np.outer(axis, axis)
         A += P
         b += P @ camera.center_world
-    centre = np.linalg.lstsq(A, b, rcond=None)[0]
+    centre = np.asarray(np.linalg.lstsq(A, b, rcond=None)[0], np.float64)
     return centre, float(np.median([np.linalg.norm(c.center_world - centre) for c in cameras]))
 
 
@@ -121,7 +122,7 @@ class VisualHull:
             msg = f'cannot place the hand: only {len(used)} camera(s) see a foreground region'
             raise HandTrackerError(msg)
         centre, n, pixels = self._grid(used)
-        hull = np.ones(len(pixels[0]), bool)
+        hull: BoolArray = np.ones(len(pixels[0]), bool)
         for i, flat in zip(used, pixels):
             camera = self.cameras[i]
             box = (0, 0, camera.width, camera.height) if rois_px is None else rois_px[i]
@@ -133,8 +134,8 @@ class VisualHull:
             raise HandTrackerError(msg)
         largest = 1 + int(np.argmax(scipy.ndimage.sum_labels(hull, labels, range(1, count + 1))))
         axis = np.arange(-n, n + 1) * self.voxel_m
-        i, j, k = np.unravel_index(np.flatnonzero(labels == largest), hull.shape)
-        return (np.stack([axis[i], axis[j], axis[k]], axis=-1) + centre).mean(axis=0)
+        ix, iy, iz = np.unravel_index(np.flatnonzero(labels == largest), hull.shape)
+        return (np.stack([axis[ix], axis[iy], axis[iz]], axis=-1) + centre).mean(axis=0)
 
     def locate(self, observations: FrameObservations, min_px: int) -> FloatArray:
         """:meth:`centre` from the observed foreground masks and their regions of interest."""
@@ -178,7 +179,7 @@ def _foreground(mask: np.ndarray, box: tuple[int, int, int, int], camera: Camera
     return np.append(full.ravel(), False)
 
 
-def hypotheses(model, center_m: FloatArray, config: InitConfig) -> list[FloatArray]:  # noqa: ANN001
+def hypotheses(model: HandModel, center_m: FloatArray, config: InitConfig) -> list[FloatArray]:
     """Relaxed hands over the roll x pitch grid, their mesh centroids at ``center_m``."""
     relaxed = with_joints_deg(RELAXED_DEG)
     out = []

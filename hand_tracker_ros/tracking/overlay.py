@@ -63,7 +63,7 @@ def draw_overlay(base: UInt8Array, model_mask: BoolArray, keypoints_uv_px: Float
             cv2.line(out, tuple(uv[parent]), tuple(uv[child]), SKELETON_RGB, 1, cv2.LINE_8)
     for point in uv[finite]:
         cv2.circle(out, tuple(point), 2, SKELETON_RGB, -1, cv2.LINE_8)
-    return out
+    return np.asarray(out, np.uint8)
 
 
 def observation_overlays(posed: PosedHand, views: Sequence[ModelView],

@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
 from hand_tracker_ros._typing import FloatArray, IntArray
 from hand_tracker_ros.core.context import RoundContext
 from hand_tracker_ros.core.energy import Term
+from hand_tracker_ros.core.shaped_pose import ShapedPose
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.optim.lm import ResidualFunction
 
@@ -81,7 +83,7 @@ class FixedTerms:
                                         model.rest_vertices_m.shape[0],
                                         model.fingertip_vertex_ids)
 
-    def rows(self, posed: PosedHand, jacobian: bool, n_params: int
+    def rows(self, posed: PosedHand | ShapedPose, jacobian: bool, n_params: int
              ) -> tuple[FloatArray, FloatArray | None]:
         """Stacked ``sqrt(w_i) r_i`` (M,) at ``posed`` and, with ``jacobian``, their
         Jacobian (M, ``n_params``) (:func:`weighted_rows`)."""
@@ -104,18 +106,22 @@ def read_vertices(terms: Sequence[Term], correspondences: Sequence[object], n_ve
 
 
 def weighted_rows(terms: Sequence[Term], correspondences: Sequence[object],
-                  scales: Sequence[float], posed: PosedHand, jacobian: bool, n_params: int
-                  ) -> tuple[FloatArray, FloatArray | None]:
+                  scales: Sequence[float], posed: PosedHand | ShapedPose, jacobian: bool,
+                  n_params: int) -> tuple[FloatArray, FloatArray | None]:
     """``r = [s_1 r_1; ...]`` (M,) of the terms at ``posed`` with their correspondences and
-    ``s_i = sqrt(w_i)``, and with ``jacobian`` ``J = [s_1 J_1; ...]`` (M, ``n_params``)."""
+    ``s_i = sqrt(w_i)``, and with ``jacobian`` ``J = [s_1 J_1; ...]`` (M, ``n_params``).
+    A :class:`ShapedPose` is read by terms that read only what it has (its module docstring;
+    the calibration's and the online scale's terms), though the energies' signatures name
+    :class:`PosedHand`."""
+    hand = cast(PosedHand, posed)
     rows: list[FloatArray] = []
     jacs: list[FloatArray] = []
     for term, corr, scale in zip(terms, correspondences, scales):
         if jacobian:
-            r, J = term.energy.linearize(posed, corr)
+            r, J = term.energy.linearize(hand, corr)
             jacs.append(J)
         else:
-            r = term.energy.residuals(posed, corr)
+            r = term.energy.residuals(hand, corr)
         rows.append(scale * r)
     r_all = np.concatenate(rows) if rows else np.zeros(0)
     if not jacobian:

@@ -39,6 +39,7 @@ from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.energies.registry import SEPARATION_TERMS
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy, TemporalTarget
+from hand_tracker_ros.energies.volume_collision import VolumeCollisionEnergy
 from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.layout import Layout
 from hand_tracker_ros.optim.lm import FitStatus, LMConfig, levenberg_marquardt
@@ -104,15 +105,17 @@ class Separator:
         anchor = TemporalTarget(posed.keypoints_m)
         n_rounds = iterations = 0
         statuses: list[FitStatus] = []
-        for _ in range(self.config.rounds if self._collision is not None else 0):
+        collision = self._collision
+        for _ in range(self.config.rounds if collision is not None else 0):
+            assert collision is not None
             context = RoundContext(posed, (), FrameObservations(0, ()), None, collisions)
-            collisions = self._collision.correspond(context)
+            collisions = collision.correspond(context)
             if len(collisions.face_pairs) == 0:     # no non-adjacent parts intersect now
                 break
             # The volume term over every candidate ball pair: no new contact hides beyond a
             # reach.
-            correspondences = [collisions if t.name == 'collision' else
-                               t.energy.pairs_at(posed.sphere_centers_m, reach_m=np.inf)
+            correspondences = [t.energy.pairs_at(posed.sphere_centers_m, reach_m=np.inf)
+                               if isinstance(t.energy, VolumeCollisionEnergy) else collisions
                                for t in self._terms]
             problem = Problem(self.model, [*self._terms, self._anchor])
             result = levenberg_marquardt(problem.function([*correspondences, anchor]), theta,

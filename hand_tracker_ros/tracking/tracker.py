@@ -248,7 +248,8 @@ class HandTracker:
         theta = theta.copy()
         iterations = 0
         statuses: list[FitStatus] = []
-        problem, correspondences = None, ()
+        problem: Problem | None = None
+        correspondences: tuple[object, ...] = ()
         if self.config.solver == 'pso':
             theta, iterations, problem, correspondences = self._solve_pso(theta, observations,
                                                                          timings)
@@ -267,10 +268,12 @@ class HandTracker:
                 theta, rnd.free, rnd.use_flow, observations, timings, start_views, collisions,
                 statuses)
             last_views = round_views if n_round > 0 else None
-            collisions = dict(zip(problem.names, correspondences)).get('collision')
+            found = dict(zip(problem.names, correspondences)).get('collision')
+            collisions = found if isinstance(found, CollisionPairs) else None
             start_views = None
             iterations += n_iter
-            round_s, full_done = time.monotonic() - round_start, full_done or rnd.free.all()
+            round_s = time.monotonic() - round_start
+            full_done = full_done or bool(rnd.free.all())
         separated_iterations = 0
         if self.config.solver == 'lm' and separate:
             t0 = time.perf_counter()
