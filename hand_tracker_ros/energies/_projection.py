@@ -186,5 +186,8 @@ def image_linearize(posed: PosedHand, blocks: Sequence[ImageTargets]
     parts = [_block_rows(posed, b, True) for b in blocks if b.n_rows > 0]
     if not parts:
         return np.zeros(0), np.zeros((0, n_params))
-    return (np.concatenate([r for r, _ in parts]),
-            np.vstack([J for _, J in parts if J is not None]))   # all, with jacobian=True
+    jacobians = []
+    for _, J in parts:
+        assert J is not None    # linearized with jacobian=True
+        jacobians.append(J)
+    return np.concatenate([r for r, _ in parts]), np.vstack(jacobians)

@@ -301,8 +301,8 @@ class SilhouetteEnergy:
             scales += [float(np.sqrt(self.config.data_to_model_weight))] * len(cameras)
         # One back-projection per camera for both directions, one ray fit for all rows.
         n_cam = len(cameras)
-        origins: list[FloatArray] = [np.empty((0, 3))] * len(pairs)   # each set below
-        dirs: list[FloatArray] = [np.empty((0, 3))] * len(pairs)
+        origins: list[FloatArray] = [np.zeros((0, 3))] * len(pairs)   # each set below
+        dirs: list[FloatArray] = [np.zeros((0, 3))] * len(pairs)
         for c, view in enumerate(context.views):
             blocks = pairs[c::n_cam]
             origin, rays = view.camera.rays(np.vstack([target for _, target in blocks]))

@@ -26,7 +26,7 @@ from hand_tracker_ros.checks import check_shape
 from hand_tracker_ros.evaluation.metrics import FAILURE_MM
 from hand_tracker_ros.geometry.rig import CameraRig
 from hand_tracker_ros.model.hand import HandModel
-from hand_tracker_ros.pipeline.frames import camera_image_topic
+from hand_tracker_ros.pipeline.frames import camera_image_topics
 from hand_tracker_ros.render.rasterizer import render
 from hand_tracker_ros.status import TrackStatus
 from hand_tracker_ros.tracking.overlay import CONTOUR_RGB, SKELETON_RGB, draw_overlay
@@ -143,7 +143,9 @@ def overlay_grid(bag: Path, rig: CameraRig, states: Mapping[int, HandStateValues
     labelled (:func:`labelled_grid`); ``errors_mm`` by stamp, where known."""
     images: dict[tuple[str, int], np.ndarray] = {}
     with BagReader(bag) as reader:
-        wanted = {camera_image_topic(reader.topics, c.name): c for c in rig.cameras}
+        by_name = {c.name: c for c in rig.cameras}
+        wanted = {topic: by_name[name] for topic, name in
+                  camera_image_topics(reader.topics, rig.names, str(bag)).items()}
         for topic, _, stamp, msg in reader.decoded(topics=list(wanted)):
             if stamp in stamps:
                 images[(topic, stamp)] = image_from_msg(msg, source=topic)

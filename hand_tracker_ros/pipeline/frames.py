@@ -9,7 +9,7 @@ frame sets with a warning (:meth:`BagReader.intact_messages`): the sets before i
 from __future__ import annotations
 
 import logging
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -65,11 +65,7 @@ def load_rig(bag: str | Path, rig_path: str | Path | None = None) -> CameraRig:
     rig = CameraRig.from_yaml(path)
     with BagReader(bag) as reader:
         topics = reader.topics
-        missing = [c.name for c in rig.cameras if camera_image_topic(topics, c.name) is None]
-        if missing:
-            msg = (f'{bag}: no image topic for camera(s) {missing} of rig {path} (looked for '
-                   f'{image_topic(missing[0])} and {compressed_image_topic(missing[0])})')
-            raise CalibrationError(msg)
+        camera_image_topics(topics, rig.names, f'{bag} (rig {path})')
         unchecked = {info_topic(c.name) for c in rig.cameras if info_topic(c.name) in topics}
         for topic, msgtype, _, raw in reader.intact_messages(topics=sorted(unchecked)):
             if topic in unchecked:   # the first camera_info of each camera
@@ -88,6 +84,24 @@ def camera_image_topic(topics: Collection[str], camera: str) -> str | None:
         if topic in topics:
             return topic
     return None
+
+
+def camera_image_topics(topics: Collection[str], cameras: Sequence[str], source: str
+                        ) -> dict[str, str]:
+    """Each camera's image topic (:func:`camera_image_topic`) -> the camera's name.
+
+    Raises
+    ------
+    CalibrationError
+        Naming ``source`` (the bag) and the cameras that have no image topic in ``topics``.
+    """
+    found = {name: camera_image_topic(topics, name) for name in cameras}
+    missing = [name for name, topic in found.items() if topic is None]
+    if missing:
+        msg = (f'{source}: no image topic for camera(s) {missing} (looked for '
+               f'{image_topic(missing[0])} and {compressed_image_topic(missing[0])})')
+        raise CalibrationError(msg)
+    return {topic: name for name, topic in found.items() if topic is not None}
 
 
 def image_count(bag: str | Path, camera: str) -> int | None:
@@ -117,9 +131,7 @@ def frame_sets(bag: str | Path, rig: CameraRig, *, sync: SyncConfig = SyncConfig
     names = rig.names
     synchronizer = ApproximateTimeSync(names, sync)
     with BagReader(bag) as reader:
-        # A camera without images gives no topic, and so no complete set.
-        topics = {t: n for n in names
-                  if (t := camera_image_topic(reader.topics, n)) is not None}
+        topics = camera_image_topics(reader.topics, names, str(bag))
         for topic, msgtype, stamp, raw in reader.intact_messages(topics=list(topics)):
             try:
                 image = image_from_msg(reader.deserialize(raw, msgtype, topic=topic),

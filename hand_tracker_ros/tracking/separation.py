@@ -37,6 +37,7 @@ from hand_tracker_ros.config import param
 from hand_tracker_ros.core.context import CollisionPairs, RoundContext
 from hand_tracker_ros.core.energy import Term
 from hand_tracker_ros.core.observations import FrameObservations
+from hand_tracker_ros.energies.collision import CollisionEnergy
 from hand_tracker_ros.energies.registry import SEPARATION_TERMS
 from hand_tracker_ros.energies.temporal import TemporalConfig, TemporalEnergy, TemporalTarget
 from hand_tracker_ros.energies.volume_collision import VolumeCollisionEnergy
@@ -93,7 +94,8 @@ class Separator:
         self.lm = dataclasses.replace(lm, max_iterations=min(config.iterations,
                                                              lm.max_iterations))
         self._terms = [t for t in terms if t.name in SEPARATION_TERMS]
-        self._collision = next((t.energy for t in self._terms if t.name == 'collision'), None)
+        self._collision = next((t.energy for t in self._terms
+                                if isinstance(t.energy, CollisionEnergy)), None)
         anchor = TemporalEnergy(TemporalConfig(mode='damping'), model.rest,
                                 model.keypoint_local_m)
         self._anchor = Term(anchor, config.anchor_weight)
@@ -105,11 +107,11 @@ class Separator:
         anchor = TemporalTarget(posed.keypoints_m)
         n_rounds = iterations = 0
         statuses: list[FitStatus] = []
-        collision = self._collision
-        for _ in range(self.config.rounds if collision is not None else 0):
-            assert collision is not None
+        if self._collision is None:
+            return SeparationResult(theta, posed, n_rounds, iterations, tuple(statuses))
+        for _ in range(self.config.rounds):
             context = RoundContext(posed, (), FrameObservations(0, ()), None, collisions)
-            collisions = collision.correspond(context)
+            collisions = self._collision.correspond(context)
             if len(collisions.face_pairs) == 0:     # no non-adjacent parts intersect now
                 break
             # The volume term over every candidate ball pair: no new contact hides beyond a
