@@ -18,7 +18,7 @@ import dataclasses
 import re
 import types
 import typing
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TypeVar
 
 import yaml
@@ -56,7 +56,7 @@ def param(default: Any, doc: str, *, unit: str = '', low: float | None = None,
     return dataclasses.field(default=default, metadata=meta)
 
 
-def nested(factory: type[T]) -> Any:
+def nested(factory: Callable[[], T]) -> Any:
     """Declare a nested config dataclass field (its fields get a dotted prefix)."""
     return dataclasses.field(default_factory=factory, metadata={'nested': True})
 

@@ -175,7 +175,7 @@ def image_from_buffer(data: bytes | memoryview | np.ndarray, width: int, height:
     pixels = _to_uint8(pixels, encoding, source)
     if code is None:
         return np.array(pixels, dtype=np.uint8, copy=True)
-    return cv2.cvtColor(pixels[:, :, 0] if channels == 1 else pixels, code)
+    return np.asarray(cv2.cvtColor(pixels[:, :, 0] if channels == 1 else pixels, code), np.uint8)
 
 
 def _to_uint8(pixels: np.ndarray, encoding: str, source: str) -> np.ndarray:
@@ -227,7 +227,7 @@ def image_from_compressed(data: bytes | memoryview | np.ndarray, fmt: str, *, so
                f'(expected {" or ".join(COMPRESSED_FORMATS)})')
         raise ImageFormatError(msg)
     check_image_size(source, bgr.shape[1], bgr.shape[0], expected_size_px)
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    return np.asarray(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), np.uint8)
 
 
 def compress_rgb(image_rgb: UInt8Array, codec: str) -> tuple[np.ndarray, str]:

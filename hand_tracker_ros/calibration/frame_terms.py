@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
@@ -39,8 +40,8 @@ from hand_tracker_ros.core.observations import FrameObservations
 from hand_tracker_ros.core.shaped_pose import ShapedPose
 from hand_tracker_ros.core.views import model_views
 from hand_tracker_ros.energies.registry import TermsConfig, size_terms
-from hand_tracker_ros.geometry.camera import PinholeCamera
-from hand_tracker_ros.model.hand import HandModel
+from hand_tracker_ros.geometry.camera_model import Camera
+from hand_tracker_ros.model.hand import HandModel, PosedHand
 from hand_tracker_ros.model.shape_jacobian import S, ShapeRig
 from hand_tracker_ros.render.contours import model_edges
 from hand_tracker_ros.tracking.problem import FixedTerms
@@ -56,14 +57,14 @@ class FrameTerms:
     rig : ShapeRig
         ``ShapeRig.vertices(model)``.
     terms : sequence of Term
-    cameras : sequence of PinholeCamera
+    cameras : sequence of Camera
     observations : FrameObservations
     theta : (P,) float64
         Pose at which the correspondences are found.
     """
 
     def __init__(self, model: HandModel, rig: ShapeRig, terms: Sequence[Term],
-                 cameras: Sequence[PinholeCamera], observations: FrameObservations,
+                 cameras: Sequence[Camera], observations: FrameObservations,
                  theta: FloatArray) -> None:
         self.model = model
         posed = model.pose(theta, jacobian=False)
@@ -83,6 +84,8 @@ class FrameTerms:
         jac = None
         if jacobian:
             jac = np.zeros((vertices.shape[0], 3, theta.size + S))
+            # Both made with their Jacobians above.
+            assert posed.vertices_jac is not None and moved.pose_jac is not None
             jac[ids, :, :theta.size] = posed.vertices_jac[ids] + moved.pose_jac
             jac[ids, :, theta.size:] = moved.shape_jac
         return ShapedPose(np.concatenate([theta, x]), vertices, jac,
@@ -99,13 +102,15 @@ class FrameTerms:
         count at ``theta``, ``x``."""
         shaped = self.shaped(theta, x, jacobian=False)
         out = {}
+        # The size terms read only what a ShapedPose has (tracking.problem.weighted_rows).
+        hand = cast(PosedHand, shaped)
         for t, c in zip(self.fixed.terms, self.fixed.correspondences):
-            r = t.energy.residuals(shaped, c)
+            r = t.energy.residuals(hand, c)
             out[t.name] = (float(r @ r), int(r.size))
         return out
 
 
-def frame_terms(model: HandModel, cameras: Sequence[PinholeCamera],
+def frame_terms(model: HandModel, cameras: Sequence[Camera],
                 observations: Sequence[FrameObservations], thetas: FloatArray,
                 config: TermsConfig = TermsConfig()) -> list[FrameTerms]:
     """One :class:`FrameTerms` per frame; ``thetas`` (N, P) float64."""

@@ -97,6 +97,7 @@ def normal_equations(frames: Sequence[FrameTerms], thetas: FloatArray, x: FloatA
     cost, rows = 0.0, 0
     for k, (frame, theta) in enumerate(zip(frames, thetas)):
         r, J = frame.residuals(theta, x, jacobian=True)
+        assert J is not None
         Jt, Jx = J[:, :p], J[:, p:]
         A[k], B[k], g[k] = Jt.T @ Jt, Jt.T @ Jx, Jt.T @ r
         C += Jx.T @ Jx

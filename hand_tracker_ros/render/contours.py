@@ -125,7 +125,8 @@ class ContourPoints:
 
 
 @numba.njit(cache=True, nogil=True)
-def _front_facing(vertices, faces, center):  # pragma: no cover - compiled
+def _front_facing(vertices: np.ndarray, faces: np.ndarray,
+                  center: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     front = np.empty(faces.shape[0], dtype=np.bool_)
     for f in range(faces.shape[0]):
         i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
@@ -140,8 +141,9 @@ def _front_facing(vertices, faces, center):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _contour_normals(uv, front, edge_vertices, faces_of_edge, opposite
-                     ):  # pragma: no cover - compiled
+def _contour_normals(uv: np.ndarray, front: np.ndarray, edge_vertices: np.ndarray,
+                     faces_of_edge: np.ndarray, opposite: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
     """Per-vertex sums (V, 2) of the unit image normals of its contour edges, and which
     vertices lie on a contour edge (V,) bool.
 
@@ -205,8 +207,11 @@ def front_facing(camera: Camera, vertices_world: FloatArray,
 
 
 @numba.njit(cache=True, nogil=True)
-def _contour_kernel(vertices, faces, center, uv, visible, mask, edge_vertices, faces_of_edge,
-                    opposite, probe_px):  # pragma: no cover - compiled
+def _contour_kernel(vertices: np.ndarray, faces: np.ndarray, center: np.ndarray,
+                    uv: np.ndarray, visible: np.ndarray, mask: np.ndarray,
+                    edge_vertices: np.ndarray, faces_of_edge: np.ndarray, opposite: np.ndarray,
+                    probe_px: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
     """:func:`contour_points` in one pass: ids (N,), normals (N, 2), outer (N,).
 
     numba because it runs per camera and round: the numpy selection and probing after the

@@ -16,6 +16,7 @@ topic                               type                            QoS
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -77,7 +78,8 @@ def ground_truth_state(sequence: SyntheticSequence, frame: SyntheticFrame,
 
 
 def write_sequence(sequence: SyntheticSequence, out_dir: str | Path, *,
-                   storage: str = 'mcap', image_format: str = 'raw') -> Path:
+                   storage: Literal['mcap', 'sqlite3'] = 'mcap', image_format: str = 'raw'
+                   ) -> Path:
     """Render every frame into ``out_dir/bag``, write ``out_dir/rig.yaml`` and
     ``out_dir/shape.yaml``; return the bag.
 
