@@ -53,10 +53,10 @@ def report(result: CalibrationResult) -> str:
                      f'{spread:>10}')
     lines.append('RMS residual of the frames, start shape -> fitted shape:')
     for name, (rms, rows) in result.initial_rms.items():
-        unit, factor = ('mm', 1e3) if name == 'silhouette' else ('px', 1.0)
+        rms_unit, factor = ('mm', 1e3) if name == 'silhouette' else ('px', 1.0)
         rms_after, rows_after = result.final_rms[name]
-        lines.append(f'  {name:<11} {factor * rms:7.3f} {unit} ({rows} rows) -> '
-                     f'{factor * rms_after:7.3f} {unit} ({rows_after} rows)')
+        lines.append(f'  {name:<11} {factor * rms:7.3f} {rms_unit} ({rows} rows) -> '
+                     f'{factor * rms_after:7.3f} {rms_unit} ({rows_after} rows)')
     lines += [f'warning: the sequence does not constrain {name} (+-{spread} from the data '
               'alone); its value stays near the start shape'
               for name, spread in zip(SHAPE_NAMES, spreads) if name in result.unconstrained]

@@ -62,10 +62,9 @@ def run(args: argparse.Namespace) -> int:
     if followed != model.shape.scale:
         print(f'hand scale followed while tracking: {model.shape.scale:.3f} -> {followed:.3f} '
               'at the last set (`hand-tracker calibrate` fits the whole shape)')
-    scored = [f for f in frames if f.truth_keypoints_m is not None]
-    if scored:
-        errors = [1e3 * np.linalg.norm(f.result.posed.keypoints_m - f.truth_keypoints_m,
-                                       axis=1).mean() for f in scored]
+    errors = [1e3 * np.linalg.norm(f.result.posed.keypoints_m - truth, axis=1).mean()
+              for f in frames if (truth := f.truth_keypoints_m) is not None]
+    if errors:
         print(f'mean 3D joint error vs ground truth: {np.mean(errors):.2f} mm '
               f'(median {np.median(errors):.2f}, max {np.max(errors):.2f})')
     return 0

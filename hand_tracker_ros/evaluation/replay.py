@@ -130,8 +130,8 @@ def replay(bag: str | Path, out_dir: str | Path, *, rate: float = 0.1,
     rig_file = Path(rig_path) if rig_path else bag.parent / 'rig.yaml'
     rig = load_rig(bag, rig_file)
     truth = ground_truth(bag)
-    first = min(truth) if truth else None
-    pose = np.asarray(truth[first].joint_positions) if init_from_ground_truth and truth else None
+    pose = (np.asarray(truth[min(truth)].joint_positions) if init_from_ground_truth and truth
+            else None)
     out_dir.mkdir(parents=True, exist_ok=True)
     recorded = out_dir / 'recorded'
     if recorded.exists():
@@ -184,7 +184,9 @@ def score_recording(recorded: Path, truth: dict[int, HandStateValues], rig: Came
         topics = reader.topics
         # By header stamp (the input set's), never by receive time: an estimate arrives
         # after its set, one or more frames late when the tracker is slow.
-        states, received, played = {}, {}, {}
+        states: dict[int, HandStateValues] = {}
+        received: dict[int, int] = {}
+        played: dict[int, int] = {}
         wanted = [t for t in (STATE.absolute, GT_STATE.absolute) if t in topics]
         for topic, _, recv_ns, msg in reader.decoded(topics=wanted) if wanted else ():
             state = hand_state_from_msg(msg)

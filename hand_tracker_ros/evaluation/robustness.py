@@ -23,6 +23,7 @@ import multiprocessing
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -39,7 +40,7 @@ FAIL_MM, RECOVERED_MM = 15.0, 10.0
 LOST_MM, RIGHT_MM = 30.0, 10.0
 
 # name -> what differs from random motion, 300 frames, 4 x 320x240 at 30 fps.
-CASES: dict[str, dict[str, float]] = {
+CASES: dict[str, dict[str, Any]] = {
     'random 300': {},
     'random 600': {'n_frames': 600},
     '15 fps': {'fps': 15.0},
@@ -126,10 +127,10 @@ def run_case(job: tuple[str, int, int | None, PipelineConfig]) -> CaseRun:
             seconds.append(result.timings_s['total'])
     finally:
         pipeline.close()
-    errors = np.array(errors)
-    LOG.info('%s, seed %d: %.2f mm mean in %.0f s', case, seed, errors.mean(),
+    errors_mm = np.array(errors)
+    LOG.info('%s, seed %d: %.2f mm mean in %.0f s', case, seed, errors_mm.mean(),
              time.monotonic() - start)
-    return CaseRun(case, seed, errors, np.array(lost, bool), np.array(seconds))
+    return CaseRun(case, seed, errors_mm, np.array(lost, bool), np.array(seconds))
 
 
 def run_suite(cases: Sequence[str], seeds: Sequence[int], *, frames: int | None = None,
