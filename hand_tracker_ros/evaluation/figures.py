@@ -143,8 +143,7 @@ def overlay_grid(bag: Path, rig: CameraRig, states: Mapping[int, HandStateValues
     labelled (:func:`labelled_grid`); ``errors_mm`` by stamp, where known."""
     images: dict[tuple[str, int], np.ndarray] = {}
     with BagReader(bag) as reader:
-        by_name = {c.name: c for c in rig.cameras}
-        wanted = {topic: by_name[name] for topic, name in
+        wanted = {topic: rig[name] for topic, name in
                   camera_image_topics(reader.topics, rig.names, str(bag)).items()}
         for topic, _, stamp, msg in reader.decoded(topics=list(wanted)):
             if stamp in stamps:

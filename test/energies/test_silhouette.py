@@ -341,7 +341,7 @@ def test_a_camera_whose_mask_floods_the_hand_gives_no_data_to_model_rows(scene) 
     # boundary crosses the hand, and rows there would pull the fingers onto it.
     _, _, _, _, obs = scene
     features = obs.cameras[0].features
-    rows, cols = np.nonzero(features.mask)
+    cols = np.nonzero(features.mask)[1]
     flooded = features.mask.copy()
     flooded[:, :int(np.median(cols))] = True
     observations = FrameObservations(0, (CameraObservation(
