@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import cv2
 import numba
@@ -88,7 +89,7 @@ def gradients(gray: UInt8Array, config: EdgeConfig) -> tuple[np.ndarray, np.ndar
     """
     src = gray
     if config.blur_sigma_px > 0.0:
-        src = cv2.GaussianBlur(gray, (0, 0), config.blur_sigma_px)
+        src = cast(UInt8Array, cv2.GaussianBlur(gray, (0, 0), config.blur_sigma_px))
     gx = cv2.Sobel(src, cv2.CV_16S, 1, 0, ksize=3)
     gy = cv2.Sobel(src, cv2.CV_16S, 0, 1, ksize=3)
     return gx, gy
@@ -116,12 +117,13 @@ def compute_edges(gray: UInt8Array, config: EdgeConfig, *,
     gx, gy = gradients(gray, config)
     edges_u8 = cv2.Canny(gx, gy, config.canny_low, config.canny_high,
                          L2gradient=config.l2_gradient)
-    orientation = cv2.phase(gx.astype(np.float32), gy.astype(np.float32))
+    orientation = cast(Float32Array, cv2.phase(gx.astype(np.float32), gy.astype(np.float32)))
     return EdgeMap(edges_u8 > 0, orientation, (int(offset_uv_px[0]), int(offset_uv_px[1])))
 
 
 @numba.njit(cache=True, nogil=True)
-def _edges_within(edges, u0, v0, uv, radius):  # pragma: no cover - compiled
+def _edges_within(edges: BoolArray, u0: int, v0: int, uv: FloatArray,
+                  radius: float) -> BoolArray:  # pragma: no cover - compiled
     height, width = edges.shape
     out = np.zeros(uv.shape[0], dtype=np.bool_)
     r2 = radius * radius

@@ -143,7 +143,8 @@ class CameraFeatures:
 # per camera and round, where the numpy form's rounding, bounds mask and gather temporaries
 # cost ~20 us a call against ~2 us here; the test compares it with the numpy form.
 @numba.njit(cache=True, nogil=True)
-def _mask_at(mask, u0, v0, uv):  # pragma: no cover - compiled
+def _mask_at(mask: BoolArray, u0: int, v0: int,
+             uv: FloatArray) -> BoolArray:  # pragma: no cover - compiled
     height, width = mask.shape
     out = np.zeros(uv.shape[0], dtype=np.bool_)
     for i in range(uv.shape[0]):
@@ -276,6 +277,7 @@ class FeatureExtractor:
         if not prev_mask.any():
             return None
         # The previous mask covers the previous ROI: paste it into a full-size image first.
+        assert self._prev_gray is not None     # set with the previous mask
         full = np.zeros(self._prev_gray.shape, dtype=np.uint8)
         full[pv0:pv1, pu0:pu1] = prev_mask
         u0, v0, u1, v1 = roi

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numba
@@ -117,7 +118,8 @@ class DenseFlow:
 # (float32 flow promoted to float64, the four products summed in this order) is the numpy
 # form's, so the samples agree to the last bit.
 @numba.njit(cache=True, nogil=True)
-def _sample_bilinear(uv, flow, off_u, off_v):  # pragma: no cover - compiled
+def _sample_bilinear(uv: FloatArray, flow: Float32Array, off_u: float, off_v: float
+                     ) -> tuple[FloatArray, BoolArray]:  # pragma: no cover - compiled
     height, width = flow.shape[0], flow.shape[1]
     out = uv.copy()
     valid = np.zeros(uv.shape[0], dtype=np.bool_)
@@ -213,7 +215,7 @@ class FlowEstimator:
 
     def __init__(self, config: FlowConfig) -> None:
         self.config = config
-        self._dis = (cv2.DISOpticalFlow_create(_DIS_PRESETS[config.dis_preset])
+        self._dis = (cv2.DISOpticalFlow.create(_DIS_PRESETS[config.dis_preset])
                      if config.method == 'dis' else None)
         self._lk_criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
 
@@ -248,7 +250,9 @@ class FlowEstimator:
         curr_gray = np.ascontiguousarray(curr_gray)
         offset = (int(offset_uv_px[0]), int(offset_uv_px[1]))
         if self._dis is not None:
-            return DenseFlow(self._dis.calc(prev_gray, curr_gray, None), offset)
+            # None: DIS allocates the flow (opencv's stub wants an array there).
+            flow_px = self._dis.calc(prev_gray, curr_gray, None)  # type: ignore[call-overload]
+            return DenseFlow(flow_px, offset)
         return self._lucas_kanade(prev_gray, curr_gray, prev_mask, offset)
 
     def _lucas_kanade(self, prev_gray: UInt8Array, curr_gray: UInt8Array,
@@ -261,10 +265,13 @@ class FlowEstimator:
         empty = np.zeros((0, 2), dtype=np.float32)
         if corners is None:
             return SparseFlow(shape, empty, empty, cfg.attach_radius_px, offset)
-        lk = {'winSize': (cfg.lk_window_px, cfg.lk_window_px), 'maxLevel': cfg.lk_levels,
-              'criteria': self._lk_criteria}
-        fwd, st_f, _ = cv2.calcOpticalFlowPyrLK(prev_gray, curr_gray, corners, None, **lk)
-        back, st_b, _ = cv2.calcOpticalFlowPyrLK(curr_gray, prev_gray, fwd, None, **lk)
+        lk: dict[str, Any] = {'winSize': (cfg.lk_window_px, cfg.lk_window_px),
+                              'maxLevel': cfg.lk_levels, 'criteria': self._lk_criteria}
+        # nextPts None: OpenCV allocates the tracked points (its stub wants an array there).
+        fwd, st_f, _ = cv2.calcOpticalFlowPyrLK(  # type: ignore[call-overload]
+            prev_gray, curr_gray, corners, None, **lk)
+        back, st_b, _ = cv2.calcOpticalFlowPyrLK(  # type: ignore[call-overload]
+            curr_gray, prev_gray, fwd, None, **lk)
         p0, p1, pb = corners.reshape(-1, 2), fwd.reshape(-1, 2), back.reshape(-1, 2)
         fb_err = np.hypot(*(p0 - pb).T)
         keep = (st_f.ravel() == 1) & (st_b.ravel() == 1) & (fb_err < cfg.lk_fb_threshold_px)

@@ -7,6 +7,7 @@ Decoding camera messages into that type is :mod:`hand_tracker_ros.bags.image_cod
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import cv2
 
@@ -66,4 +67,4 @@ def to_gray(image_rgb: UInt8Array) -> UInt8Array:
     gray : (H, W) uint8
     """
     check_rgb('image_rgb', image_rgb)
-    return cv2.cvtColor(image_rgb, cv2.COLOR_RGB2GRAY)
+    return cast(UInt8Array, cv2.cvtColor(image_rgb, cv2.COLOR_RGB2GRAY))

@@ -11,6 +11,8 @@ detector see it, and the camera the tracker fits with is :meth:`Camera.scaled` t
 """
 from __future__ import annotations
 
+from typing import cast
+
 import cv2
 
 from hand_tracker_ros._typing import UInt8Array
@@ -45,7 +47,7 @@ def to_width(image: UInt8Array, width_px: int) -> UInt8Array:
     size = working_size(width, height, width_px)
     if size == (width, height):
         return image
-    return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    return cast(UInt8Array, cv2.resize(image, size, interpolation=cv2.INTER_AREA))
 
 
 def to_working(image: UInt8Array, camera: Camera) -> UInt8Array:
@@ -57,4 +59,5 @@ def to_working(image: UInt8Array, camera: Camera) -> UInt8Array:
         msg = (f'{camera.name}: a {width}x{height} image cannot be scaled down to the '
                f'working {camera.width}x{camera.height}')
         raise ShapeError(msg)
-    return cv2.resize(image, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
+    return cast(UInt8Array, cv2.resize(image, (camera.width, camera.height),
+                                       interpolation=cv2.INTER_AREA))

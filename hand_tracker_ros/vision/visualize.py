@@ -6,6 +6,8 @@ Invalid (NaN) flow is black.
 """
 from __future__ import annotations
 
+from typing import cast
+
 import cv2
 import numpy as np
 
@@ -100,4 +102,4 @@ def flow_to_rgb(flow_px: Float32Array, max_flow_px: float | None = None) -> UInt
     hsv[..., 1] = 255
     hsv[..., 2] = np.clip(magnitude / max(scale, 1e-9) * 255.0, 0, 255).astype(np.uint8)
     hsv[~finite] = 0
-    return cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)
+    return cast(UInt8Array, cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB))

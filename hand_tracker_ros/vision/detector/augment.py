@@ -64,6 +64,7 @@ References: docs/references.md.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import cv2
 import numpy as np
@@ -190,12 +191,13 @@ def scaled_crop(image: UInt8Array, uv_px: FloatArray, scale: float, origin_px: F
     """
     if scale < 1.0:
         sigma = 0.5 * np.sqrt(1.0 / scale ** 2 - 1.0)
-        image = cv2.GaussianBlur(image, (0, 0), sigma)
+        image = cast(UInt8Array, cv2.GaussianBlur(image, (0, 0), sigma))
     # Pixel centres are integers: crop pixel x samples the source at origin + x / scale.
     affine = np.array([[scale, 0.0, -scale * origin_px[0]],
                        [0.0, scale, -scale * origin_px[1]]])
-    crop = cv2.warpAffine(image, affine, (crop_hw[1], crop_hw[0]), flags=cv2.INTER_LINEAR,
-                          borderMode=cv2.BORDER_REPLICATE)
+    crop = cast(UInt8Array, cv2.warpAffine(image, affine, (crop_hw[1], crop_hw[0]),
+                                           flags=cv2.INTER_LINEAR,
+                                           borderMode=cv2.BORDER_REPLICATE))
     return crop, scale * (uv_px - origin_px)
 
 

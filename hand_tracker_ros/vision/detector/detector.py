@@ -62,6 +62,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import cv2
 import numpy as np
@@ -226,7 +227,7 @@ class FingertipDetector:
         shrink = min(1.0, self.config.roi_max_px / max(u1 - u0, v1 - v0))
         size = (max(round((u1 - u0) * shrink), 1), max(round((v1 - v0) * shrink), 1))
         if shrink < 1.0:
-            crop = cv2.resize(crop, size, interpolation=cv2.INTER_AREA)
+            crop = cast(UInt8Array, cv2.resize(crop, size, interpolation=cv2.INTER_AREA))
         uv, score = find_peaks(self.model.maps(np.ascontiguousarray(crop)),
                                self.config.min_score, self.config.max_detections)
         factor = np.array([(u1 - u0) / size[0], (v1 - v0) / size[1]])

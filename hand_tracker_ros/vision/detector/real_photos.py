@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import cv2
 import numpy as np
@@ -78,8 +79,8 @@ def load_labelled_photos(labels_path: str | Path) -> list[LabelledPhoto]:
                    f'{[bgr.shape[1], bgr.shape[0]]}, (5, 2) tips and (5,) visible, got '
                    f'{tips.shape} and {visible.shape}')
             raise ConfigError(msg)
-        photos.append(LabelledPhoto(name, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), tips, visible,
-                                    str(entry.get('skin', ''))))
+        rgb = cast(UInt8Array, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        photos.append(LabelledPhoto(name, rgb, tips, visible, str(entry.get('skin', ''))))
     return photos
 
 
