@@ -95,11 +95,11 @@ class FeaturesNode(Node):
 
     def _publish(self, camera: str, features: CameraFeatures, header: Header) -> None:
         """Publish one camera's features (in process: only the topics someone reads)."""
+        flow = features.flow
         images = {'edges': lambda: edge_image(features.edges),
                   'edge_orientation': lambda: features.edges.orientation_rad,
                   'mask': lambda: mask_image(features.mask),
-                  'flow': (lambda: flow_image(features.flow)) if features.flow is not None
-                  else None}
+                  'flow': (lambda: flow_image(flow)) if flow is not None else None}
         fill = {'flow': np.nan}     # no flow outside a region of interest
         for output, pub in self._pubs[camera].items():
             pixels = images[output]

@@ -98,7 +98,7 @@ class PlayerNode(Node):
         except BaseException:
             self._bag.__exit__(None, None, None)
             raise
-        self._clock = self.create_publisher(Clock, CLOCK_TOPIC, 10)
+        self._clock_pub = self.create_publisher(Clock, CLOCK_TOPIC, 10)
         self._clock_ns: int | None = None     # the bag time last published on /clock
         self.create_subscription(Bool, '~/pause', self._on_pause, 10)
         # The context must be shut down from the executor's thread: shutting it down destroys
@@ -115,7 +115,7 @@ class PlayerNode(Node):
         played = self._schedule.select_topics(topics)
         if self.config.publish_clock and CLOCK_TOPIC in played:
             played.remove(CLOCK_TOPIC)
-        publishers = {}
+        publishers: dict[str, Publisher[Any]] = {}
         for topic in played:
             summary = topics[topic]
             try:
@@ -203,7 +203,7 @@ class PlayerNode(Node):
                 return -1
             if self.config.publish_clock and stamp_ns != self._clock_ns:
                 self._clock_ns = stamp_ns
-                self._clock.publish(clock_msg(stamp_ns))
+                self._clock_pub.publish(clock_msg(stamp_ns))
             self._outputs[topic].publish(raw)
         return paused_ns
 

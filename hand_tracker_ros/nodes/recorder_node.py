@@ -23,8 +23,9 @@ mcap summary and ``metadata.yaml``), so the bag is complete and readable.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, cast
 
 import rclpy.logging
 from rclpy.clock import Clock, ClockType
@@ -78,7 +79,8 @@ class RecorderNode(Node):
             return
         self._exclude = compile_exclude(self.config.exclude_regex)
         self._wanted = {self.resolve_topic_name(t) for t in self.config.topics}
-        self._writer = BagWriter(Path(self.config.output), storage=self.config.storage)
+        storage = cast(Literal['mcap', 'sqlite3'], self.config.storage)   # the param's choices
+        self._writer = BagWriter(Path(self.config.output), storage=storage)
         self._writer.__enter__()
         self.get_logger().info(f'recording to {self._writer.path} ({self.config.storage})')
         # A wall-clock timer: with use_sim_time the ROS clock stands still until a player
@@ -133,7 +135,7 @@ class RecorderNode(Node):
     def destroy_node(self) -> None:
         """Write what DDS still holds, close the bag, then destroy the node."""
         if self._writer is not None:
-            taken = sum(drain(sub, lambda raw, t=topic: self._write(t, raw))
+            taken = sum(drain(sub, partial(self._write, topic))
                         for topic, sub in self._subscriptions_by_topic.items())
             writer, self._writer = self._writer, None
             writer.close()

@@ -66,6 +66,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from hand_tracker_msgs.msg import SalientPoints
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
@@ -228,8 +229,9 @@ class TrackerNode(Node):
         cfg = self.config
         self._encoder = EstimateEncoder(RclpyKit(), self._model, cfg.world_frame,
                                         cfg.publish_mesh)
-        self._pubs = {t: self.create_publisher(message_class(t.msgtype), t.name, 10)
-                      for t in topics.ESTIMATES if cfg.publish_tf or t != topics.TF}
+        self._pubs: dict[topics.Topic, Publisher[Any]] = {
+            t: self.create_publisher(message_class(t.msgtype), t.name, 10)
+            for t in topics.ESTIMATES if cfg.publish_tf or t != topics.TF}
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         description = topics.ROBOT_DESCRIPTION
         # The encoder sends it again when the session refines the hand's scale.
@@ -242,7 +244,7 @@ class TrackerNode(Node):
         # Distributed, the features and salient_points processes follow the tracker's plan.
         self._attention = (Attention(cfg.attention, self.working_cameras)
                            if cfg.inputs == 'features' else None)
-        self._pub_plan = (self.create_publisher(
+        self._pub_plan: Publisher[Any] | None = (self.create_publisher(
             message_class(topics.OBSERVATION_PLAN.msgtype), topics.OBSERVATION_PLAN.name,
             QoSProfile(depth=1)) if self._attention is not None else None)
         # Wall-clock timers: frame waits and diagnostics must run even when sim time pauses.

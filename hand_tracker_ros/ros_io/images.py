@@ -34,7 +34,7 @@ def image_msg(pixels: np.ndarray, header: Header) -> Image:
                 encoding=encoding, is_bigendian=0,
                 step=pixels.shape[1] * channels * pixels.dtype.itemsize)
     data = array.array('B')
-    data.frombytes(pixels.view(np.uint8).ravel())
+    data.frombytes(pixels.view(np.uint8).ravel().data)
     msg.data = data
     return msg
 

@@ -39,7 +39,7 @@ from sensor_msgs.msg import Image
 from hand_tracker_ros._typing import BoolArray, Float32Array
 from hand_tracker_ros.core.observations import CameraObservation, FrameObservations
 from hand_tracker_ros.errors import ImageFormatError, ShapeError
-from hand_tracker_ros.geometry.camera import PinholeCamera
+from hand_tracker_ros.geometry.camera_model import Camera
 from hand_tracker_ros.ros_io.images import detections_from_msg
 from hand_tracker_ros.vision.detections import SalientDetections
 from hand_tracker_ros.vision.edges import EdgeMap
@@ -216,7 +216,7 @@ class FrameAssembler:
                            parts.get('salient_points'))
 
 
-def camera_observation(frame: CameraFrame, camera: PinholeCamera) -> CameraObservation:
+def camera_observation(frame: CameraFrame, camera: Camera) -> CameraObservation:
     """The tracker's view of one camera frame."""
     size = (camera.width, camera.height)
     edges = EdgeMap(frame.edges, frame.orientation_rad)
@@ -229,7 +229,7 @@ def camera_observation(frame: CameraFrame, camera: PinholeCamera) -> CameraObser
 
 
 def frame_observations(stamp_ns: int, frames: Mapping[str, CameraFrame],
-                       cameras: Sequence[PinholeCamera]) -> FrameObservations:
+                       cameras: Sequence[Camera]) -> FrameObservations:
     """A synchronized set of camera frames (name -> frame) as FrameObservations, rig order."""
     return FrameObservations(stamp_ns, tuple(camera_observation(frames[c.name], c)
                                              for c in cameras))
