@@ -7,7 +7,7 @@ bash "$ROOT/tools/setup.sh"
 # shellcheck disable=SC1091
 . "$ROOT/.ws/env.sh"
 cd "$ROOT"
-# Lint and type-check first (ruff.toml; mypy.ini, which says what it checks and excludes): either
+# Lint and type-check first (ruff.toml; mypy.ini, which says what it checks): either
 # fails CI before any test runs.
 ruff check --quiet .
 mypy
