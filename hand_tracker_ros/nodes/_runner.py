@@ -25,11 +25,11 @@ lock the tracker's fit needs: in the distributed
 graph (24 subscriptions per tracker at 4 cameras) py-spy found the tracker's executor thread
 holding the lock in 17 % of the samples, and a fit took 36.8 ms of wall time for 24.1 ms of
 CPU (27.8 for 23.7 composed). rclpy's ``EventsExecutor`` (``rclpy.experimental``) queues the
-middleware's events in C++ instead; with it, in pairs at 1.0x (README, "Session of 2026-11-26
-(ninth)"), the distributed graph estimated 25.8 / 27.6 / 25.0 / 17.6 sets/s against 15.6 /
-18.4 / 21.4 / 16.8 (latency p50 55-63 ms against 65-91 ms); composed, the pairs showed no
-difference that the runs' spread resolves. It cannot wait on guard conditions, so a process
-whose nodes made one (a player with a bag to play) keeps the single-threaded executor.
+middleware's events in C++ instead; with it, in pairs at 1.0x (docs/history.md, "Session of
+2026-11-26 (ninth)"), the distributed graph estimated 25.8 / 27.6 / 25.0 / 17.6 sets/s
+against 15.6 / 18.4 / 21.4 / 16.8 (latency p50 55-63 ms against 65-91 ms); composed, the pairs
+showed no difference that the runs' spread resolves. It cannot wait on guard conditions, so a
+process whose nodes made one (a player with a bag to play) keeps the single-threaded executor.
 ``HAND_TRACKER_EXECUTOR=single`` in the environment chooses that one everywhere, e.g. should
 one of rclpy's open issues on the events executor (ros2/rclpy#1641, #1644: crashes when a
 task raises, or when entities with event callbacks are destroyed while it spins; our nodes

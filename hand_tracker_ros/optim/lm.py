@@ -83,7 +83,7 @@ class LMConfig:
     # round) stops after an accepted step that gains less than 0.1 %. Against 1e-6, in
     # bench/lockstep.py on held-out bags, the fits took 0.91-0.92 of the time with the same
     # error, from the true pose and from the search. 1e-2 took 0.90 but refined a live
-    # search's rough find more slowly (README, "Session of 2026-11-26 (eighth)").
+    # search's rough find more slowly (docs/history.md, "Session of 2026-11-26 (eighth)").
     ftol: float = param(1e-3, 'stop when an accepted step decreases the cost by less than '
                         'this fraction of it', low=0.0, high=1.0)
     xtol: float = param(1e-7, 'stop when the step norm is below this', low=0.0, high=1.0)

@@ -39,7 +39,8 @@ the fit in progress. Why per kind, and these statistics:
   latency, and the tracker idled 0.2 ms a set on average. With the median fit and
   observation the set waited 5.5 ms and the tracker idled 2 ms a set (a fit shorter than
   predicted waits for the rest of the observation), about 4 % of the throughput; with the
-  lower quartile of the fits, 8 ms and 0.8-1.4 ms (README, "Session of 2026-11-26 (sixth)").
+  lower quartile of the fits, 8 ms and 0.8-1.4 ms (docs/history.md, "Session of 2026-11-26
+  (sixth)").
 
 When the observer is due to start, the newest set is on average half a period old. While the
 fits take longer than a period (the median of the fit's kind; sets are skipped anyway), when
@@ -53,7 +54,7 @@ when the next set was due within 0.3 of the period, 0.1 more for its jitter) idl
 tracker 20 ms a fit when fits took 1.8 periods, and passed over a set after one long fit at
 slow playback (an independent review). Composed at 1.0x, 4 x 320x240, in pairs with the loop
 without it, that rule lowered the median latency in 8 of 11 runs (a median of 84 against 92
-ms); the bounded rule's figures are in the README ("Session of 2026-11-26 (seventh)").
+ms); the bounded rule's figures are in docs/history.md ("Session of 2026-11-26 (seventh)").
 
 Why plain threads and not a MultiThreadedExecutor: the one-slot mailboxes state the "newest
 set wins" policy directly, and the executor thread stays free for callbacks and timers
