@@ -70,7 +70,6 @@ class TipNetwork(nn.Module):
             *_conv_bn_relu(stem_channels, channels, 1))
         self.blocks = nn.Sequential(*(SeparableBlock(channels, d) for d in dilations))
         self.head = nn.Conv2d(channels, 3, 1)
-        assert self.head.bias is not None     # a Conv2d has a bias unless bias=False
         with torch.no_grad():
             self.head.bias[0] = _PRIOR_LOGIT
 
@@ -126,14 +125,11 @@ def load_onnx_weights(network: ExportedNetwork, model_bytes: bytes) -> None:
             index = modules.index(conv)
             after = modules[index + 1] if index + 1 < len(modules) else None
             if isinstance(after, nn.BatchNorm2d):
-                # The network's normalisations track running statistics.
-                assert after.running_mean is not None and after.running_var is not None
                 after.weight.fill_(1.0)
                 after.bias.copy_(torch.from_numpy(bias.copy()))
                 after.running_mean.zero_()
                 after.running_var.fill_(1.0 - after.eps)
             else:    # the head keeps its own bias
-                assert conv.bias is not None
                 conv.bias.copy_(torch.from_numpy(bias.copy()))
 
 

@@ -434,10 +434,8 @@ def export_onnx(network: Any) -> bytes:
     # old exporter handles (tests compare the export with PyTorch's output).
     with warnings.catch_warnings():
         warnings.simplefilter('ignore', DeprecationWarning)
-        # torch's annotation of f omits the file objects the TorchScript exporter writes to.
-        torch.onnx.export(network.eval(), (dummy,), buffer,  # type: ignore[arg-type]
-                          input_names=[INPUT_NAME], output_names=[OUTPUT_NAME],
-                          opset_version=_OPSET, dynamo=False,
+        torch.onnx.export(network.eval(), (dummy,), buffer, input_names=[INPUT_NAME],
+                          output_names=[OUTPUT_NAME], opset_version=_OPSET, dynamo=False,
                           dynamic_axes={INPUT_NAME: {1: 'height', 2: 'width'},
                                         OUTPUT_NAME: {2: 'rows', 3: 'cols'}})
     return buffer.getvalue()
