@@ -222,3 +222,27 @@ def test_player_starts_paused_until_false_on_pause(node_process, ros, text_bag):
 def test_play_verb_runs_the_player_in_process_until_the_bag_ends(text_bag):
     args = play_args(str(text_bag), '--wait-for-subscribers', '0', '--rate', '4')
     assert play.run(args) == 0
+
+
+def test_player_keeps_its_own_clock_for_timers_and_parameter_changes(text_bag):
+    # The node's /clock publisher once took the attribute name of rclpy's node clock
+    # (``Node._clock``), so get_clock() returned the publisher and a parameter change or a
+    # timer raised.
+    import rclpy
+    from rclpy.clock import Clock
+    from rclpy.parameter import Parameter
+
+    from hand_tracker_ros.nodes.player_node import PlayerNode
+
+    rclpy.init()
+    try:
+        node = PlayerNode({'bag': str(text_bag), 'start_paused': True})
+        try:
+            assert isinstance(node.get_clock(), Clock)
+            node.create_timer(1.0, lambda: None)
+            results = node.set_parameters([Parameter('wait_subscriber_count', value=2)])
+            assert len(results) == 1
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
