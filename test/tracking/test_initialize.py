@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 import scipy.stats
 
+from hand_tracker_ros._typing import FloatArray
 from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.errors import HandTrackerError, ShapeError
 from hand_tracker_ros.geometry.rig import CameraRig
@@ -12,6 +13,7 @@ from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
 from hand_tracker_ros.tracking.evidence import CoarseMasks, silhouette_iou
 from hand_tracker_ros.tracking.initialize import (
+    HandRegion,
     InitConfig,
     VisualHull,
     hypotheses,
@@ -116,5 +118,43 @@ def test_the_coarse_splat_iou_ranks_poses_as_the_rendered_silhouette_does(hand_m
     assert abs(truth - silhouette_iou(tracker.views(posed), observations)) < 0.1
     assert truth > splat.max()
     assert scipy.stats.spearmanr(splat, rendered)[0] > 0.9
-    ranked = ranked_hypotheses(tracker, observations, centre, InitConfig())
+    unslid = InitConfig(slide_best=0)
+    ranked = ranked_hypotheses(tracker, observations, HandRegion(centre, np.eye(3)[0]), unslid)
     np.testing.assert_array_equal(ranked[0], starts[int(np.argmax(splat))])
+
+
+@pytest.mark.parametrize('offset_mm', [-20.0, 20.0])
+def test_hypotheses_slid_along_the_hull_axis_move_onto_the_hand(hand_model,
+                                                                offset_mm) -> None:
+    """The hull's centroid misses the hand mostly along its long axis; a region 20 mm off
+    the hand along that axis puts the unslid hypotheses 20 mm off, and the slid best ones
+    on the hand."""
+    sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=2, seed=9), hand_model)
+    frame = sequence.frame(1)
+    pipeline = OfflinePipeline(hand_model, sequence.rig)
+    observations, _ = pipeline.observe(FrameSet(frame.stamp_ns, frame.images))
+    pipeline.close()
+    tracker = pipeline.session.tracker
+    hand_m = hand_model.pose(frame.theta, jacobian=False).vertices_m.mean(axis=0)
+    axis = VisualHull(tracker.cameras).locate(observations, 50).axis
+    region = HandRegion(hand_m + 1e-3 * offset_mm * axis, axis)
+
+    def miss_mm(config: InitConfig) -> FloatArray:
+        best = ranked_hypotheses(tracker, observations, region, config)[:3]
+        return np.array([1e3 * np.linalg.norm(
+            hand_model.pose(theta, jacobian=False).vertices_m.mean(axis=0) - hand_m)
+            for theta in best])
+
+    np.testing.assert_allclose(miss_mm(InitConfig(slide_best=0)), 20.0, atol=1e-6)
+    assert np.all(miss_mm(InitConfig()) < 5.0)
+
+
+def test_the_hull_region_axis_follows_the_longest_extent() -> None:
+    rig = CameraRig.ring(4, 160, 120)
+    along = np.array([0.6, 0.0, 0.8])
+    centres = [k * 0.01 * along for k in range(-4, 5)]
+    masks = [np.logical_or.reduce([m[c] for m in (_ball_masks(rig, p) for p in centres)])
+             for c in range(4)]
+    region = VisualHull(rig.cameras).region(masks, 10)
+    np.testing.assert_allclose(region.centre_m, 0.0, atol=3e-3)
+    assert abs(region.axis @ along) > 0.95
