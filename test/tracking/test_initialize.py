@@ -96,17 +96,25 @@ def test_pipeline_finds_the_hand_without_a_given_pose(hand_model) -> None:
     assert error < 10.0 and 'initialize' in result.timings_s
 
 
-def test_the_coarse_splat_iou_ranks_poses_as_the_rendered_silhouette_does(hand_model) -> None:
-    """The cheap ranking of the start hypotheses (no rendering) agrees with the rendered
-    silhouette IoU: at the true pose the two IoUs are close (both below 1: the skin mask
-    also holds clutter) and above every relaxed hypothesis, and the hypotheses at the hand's
-    centre are ranked alike (Spearman's rho)."""
+@pytest.fixture(scope='module')
+def grasp(hand_model):
+    """A grasp frame (seed 9), its observations and a tracker of its rig."""
     sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=2, seed=9), hand_model)
     frame = sequence.frame(1)
     pipeline = OfflinePipeline(hand_model, sequence.rig)
     observations, _ = pipeline.observe(FrameSet(frame.stamp_ns, frame.images))
     pipeline.close()
     tracker = pipeline.session.tracker
+    return frame, observations, tracker
+
+
+def test_the_coarse_splat_iou_ranks_poses_as_the_rendered_silhouette_does(hand_model,
+                                                                          grasp) -> None:
+    """The cheap ranking of the start hypotheses (no rendering) agrees with the rendered
+    silhouette IoU: at the true pose the two IoUs are close (both below 1: the skin mask
+    also holds clutter) and above every relaxed hypothesis, and the hypotheses at the hand's
+    centre are ranked alike (Spearman's rho)."""
+    frame, observations, tracker = grasp
     masks = CoarseMasks(observations, tracker.cameras)
     centre = hand_model.pose(frame.theta, jacobian=False).vertices_m.mean(axis=0)
     starts = hypotheses(hand_model, centre, InitConfig())
@@ -124,17 +132,12 @@ def test_the_coarse_splat_iou_ranks_poses_as_the_rendered_silhouette_does(hand_m
 
 
 @pytest.mark.parametrize('offset_mm', [-20.0, 20.0])
-def test_hypotheses_slid_along_the_hull_axis_move_onto_the_hand(hand_model,
+def test_hypotheses_slid_along_the_hull_axis_move_onto_the_hand(hand_model, grasp,
                                                                 offset_mm) -> None:
     """The hull's centroid misses the hand mostly along its long axis; a region 20 mm off
     the hand along that axis puts the unslid hypotheses 20 mm off, and the slid best ones
     on the hand."""
-    sequence = SyntheticSequence(SynthConfig(motion='grasp', n_frames=2, seed=9), hand_model)
-    frame = sequence.frame(1)
-    pipeline = OfflinePipeline(hand_model, sequence.rig)
-    observations, _ = pipeline.observe(FrameSet(frame.stamp_ns, frame.images))
-    pipeline.close()
-    tracker = pipeline.session.tracker
+    frame, observations, tracker = grasp
     hand_m = hand_model.pose(frame.theta, jacobian=False).vertices_m.mean(axis=0)
     axis = VisualHull(tracker.cameras).locate(observations, 50).axis
     region = HandRegion(hand_m + 1e-3 * offset_mm * axis, axis)
