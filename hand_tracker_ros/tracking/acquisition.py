@@ -45,10 +45,9 @@ set.
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -100,7 +99,7 @@ class Acquisition:
         self._full_s = 0.0       # duration of the last full fit, s (0: none yet)
         self._rounds = len(rounds(tracker.config.schedule))
         self._hull = VisualHull(tracker.cameras)     # the hand is located on every set
-        self._ranking = dataclasses.replace(init, slide_best=0)    # module docstring
+        self._ranking = replace(init, slide_best=0)    # not slid (module docstring)
 
     def step(self, observations: FrameObservations) -> Fit:
         """Search on one set for about ``step_budget_ms``; the set's full fit.
@@ -131,11 +130,12 @@ class Acquisition:
 
     def _explore(self, observations: FrameObservations, region: HandRegion, until_s: float,
                  reserve_full: bool) -> tuple[float, Fit]:
-        """Short fits of untried hypotheses, centred in ``region``, while the next one ends
-        before ``until_s`` (``time.monotonic``; at least one), leaving a full fit's time when
-        ``reserve_full``; the most confident with its score. Before a full fit was timed it
-        is reckoned at one short fit per scheduled round; reserving nothing for it, the
-        first set of a search explored for the whole budget and ran its full fit on top."""
+        """Short fits of untried hypotheses, centred at the region's centre, while the next
+        one ends before ``until_s`` (``time.monotonic``; at least one), leaving a full fit's
+        time when ``reserve_full``; the most confident with its score. Before a full fit was
+        timed it is reckoned at one short fit per scheduled round; reserving nothing for it,
+        the first set of a search explored for the whole budget and ran its full fit on
+        top."""
         best: tuple[float, Fit] | None = None
         while self._pending:
             t0 = time.monotonic()
