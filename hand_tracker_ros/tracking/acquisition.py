@@ -13,12 +13,18 @@ and the best fit so far follows the hand from set to set:
    --repeats 2``) the slide tracked a mean of 72 % of the sets, with 4 of 24 runs under
    40 %, against 78 % and 2 runs without it.
 2. On the first set, the best hypotheses get short fits (:data:`.schedule.QUICK`) until the
-   budget left is what a full fit takes, and the most confident of them gets the full
-   schedule. On every later set the best fit so far, moved by the displacement of the hull
-   centre since its set, gets the full schedule first (while it is near the hand, that is
-   tracking it), and untried hypotheses, centred on this set's hull centre, get short fits
-   with the rest of the budget: at least one per set, so that a carried fit stuck in a wrong
-   basin does not stop the search. Once every hypothesis was tried they are ranked again.
+   budget left is what a full fit takes or one of them is ``confident`` (the session's
+   ``lost_below``), and the most confident of them gets the full schedule. (Stopping there
+   leaves the hand less time to move before it is followed: in the simulated live loop,
+   ``bench/simulate_live.py --seeds 3570 ... 3581 --frames 120 --repeats 2``, three runs
+   tracked a mean of 82, 84 and 85 % of the sets against 82, 78 and 78 % without the stop,
+   within the loop's run-to-run spread; a first set of 300 instead of 60 ms, exploring more,
+   tracked 59 % against 85 %.) On every later set the best fit so far, moved by the
+   displacement of the hull centre since its set, gets the full schedule first (while it is
+   near the hand, that is tracking it), and untried hypotheses, centred on this set's hull
+   centre, get short fits with the rest of the budget: at least one per set, so that a
+   carried fit stuck in a wrong basin does not stop the search. Once every hypothesis was
+   tried they are ranked again.
 3. The full fit is the set's estimate. When its confidence reaches the session's
    ``lost_below`` the hand is acquired and tracking goes on from it; otherwise the set is
    LOST, and the more confident of the full fit and the best short fit is carried to the
@@ -45,6 +51,7 @@ set.
 """
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -86,13 +93,14 @@ class Acquisition:
 
     ``score(fit, observations)`` ranks fits (higher is better: the session's confidence).
     ``start`` (P,), optional, is the first carried candidate (e.g. the last estimate before
-    the hand was lost).
+    the hand was lost). A short fit scoring ``confident`` ends the first set's exploring.
     """
 
     def __init__(self, tracker: HandTracker, init: InitConfig, config: AcquisitionConfig,
                  score: Callable[[Fit, FrameObservations], float],
-                 start: FloatArray | None = None) -> None:
+                 start: FloatArray | None = None, confident: float = math.inf) -> None:
         self._tracker, self._init, self._config, self._score = tracker, init, config, score
+        self._confident = confident
         self._pending: list[FloatArray] = []   # untried hypotheses, best IoU first
         self._carried: _Candidate | None = None
         self._start = None if start is None else np.asarray(start, np.float64).copy()
@@ -132,10 +140,10 @@ class Acquisition:
                  reserve_full: bool) -> tuple[float, Fit]:
         """Short fits of untried hypotheses, centred at the region's centre, while the next
         one ends before ``until_s`` (``time.monotonic``; at least one), leaving a full fit's
-        time when ``reserve_full``; the most confident with its score. Before a full fit was
-        timed it is reckoned at one short fit per scheduled round; reserving nothing for it,
-        the first set of a search explored for the whole budget and ran its full fit on
-        top."""
+        time when ``reserve_full`` (and then only until one is ``confident``); the most
+        confident with its score. Before a full fit was timed it is reckoned at one short
+        fit per scheduled round; reserving nothing for it, the first set of a search
+        explored for the whole budget and ran its full fit on top."""
         best: tuple[float, Fit] | None = None
         while self._pending:
             t0 = time.monotonic()
@@ -147,7 +155,8 @@ class Acquisition:
             now = time.monotonic()
             short_s = now - t0
             reserve_s = (self._full_s or self._rounds * short_s) if reserve_full else 0.0
-            if now + short_s + reserve_s > until_s:
+            if now + short_s + reserve_s > until_s or (reserve_full
+                                                        and best[0] >= self._confident):
                 break
         if not self._pending:
             self._pending = ranked_hypotheses(self._tracker, observations, region,

@@ -331,7 +331,8 @@ class TrackingSession:
 
     def _new_acquisition(self, start: FloatArray | None) -> Acquisition:
         return Acquisition(self.tracker, self.config.init, self.config.acquisition,
-                           lambda fit, obs: self._judge('search', fit, obs).confidence, start)
+                           lambda fit, obs: self._judge('search', fit, obs).confidence, start,
+                           confident=self.config.failure.lost_below)
 
     def _acquire(self, observations: FrameObservations, timings: dict[str, float],
                  start: float) -> TrackResult:

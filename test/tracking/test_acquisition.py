@@ -91,6 +91,27 @@ def test_every_set_of_a_live_search_tries_an_untried_hypothesis(hand_model, obse
     assert fits == [['short', 'full'], ['full', 'short'], ['full', 'short']]
 
 
+@pytest.mark.parametrize(('lost_below', 'stops'), [(0.0, True), (1.0, False)])
+def test_the_first_set_of_a_live_search_stops_exploring_at_a_confident_short_fit(
+        hand_model, observed, lost_below, stops) -> None:
+    """Any score is confident at ``lost_below`` 0: one short fit, then the full fit; none is
+    at 1: short fits until the budget is spent."""
+    sequence, _, observations = observed
+    session = _session(hand_model, sequence, **{'session.acquisition.step_budget_ms': 1000.0,
+                                                'session.failure.lost_below': lost_below})
+    kinds = []
+    fit = session.tracker.fit
+
+    def counting_fit(*args, **kwargs):
+        kinds.append('short' if kwargs.get('plan') is QUICK else 'full')
+        return fit(*args, **kwargs)
+
+    session.tracker.fit = counting_fit
+    _live_step(session, observations[0])
+    assert kinds[-1] == 'full' and 'full' not in kinds[:-1]
+    assert (len(kinds) == 2) == stops
+
+
 def test_a_live_session_that_loses_the_hand_searches_from_the_next_set(hand_model,
                                                                         observed) -> None:
     sequence, frames, observations = observed
