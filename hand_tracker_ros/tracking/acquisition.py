@@ -18,8 +18,9 @@ and the best fit so far follows the hand from set to set:
    leaves the hand less time to move before it is followed: in the simulated live loop,
    ``bench/simulate_live.py --seeds 3570 ... 3581 --frames 120 --repeats 2``, three runs
    tracked a mean of 82, 84 and 85 % of the sets against 82, 78 and 78 % without the stop,
-   within the loop's run-to-run spread; a first set of 300 instead of 60 ms, exploring more,
-   tracked 59 % against 85 %.) On every later set the best fit so far, moved by the
+   and with ``--slowdown 1.5`` 46 and 52 % against 49 and 45 %, within the loop's
+   run-to-run spread; a first set of 300 instead of 60 ms, exploring more, tracked 59 %
+   against 85 %.) On every later set the best fit so far, moved by the
    displacement of the hull centre since its set, gets the full schedule first (while it is
    near the hand, that is tracking it), and untried hypotheses, centred on this set's hull
    centre, get short fits with the rest of the budget: at least one per set, so that a
