@@ -10,8 +10,8 @@ and the best fit so far follows the hand from set to set:
    and the relaxed-hand hypotheses are ranked by silhouette IoU, as in the one-shot search
    (:func:`.initialize.ranked_hypotheses`), but not slid along the hull's axis: in the
    simulated live loop (``bench/simulate_live.py --seeds 3570 ... 3581 --frames 120
-   --repeats 2``) the slide tracked a mean of 72 % of the sets, with 4 of 24 runs under
-   40 %, against 78 % and 2 runs without it.
+   --repeats 2``) a version that slid them tracked a mean of 72 % of the sets, with 4 of 24
+   runs under 40 %, against 78 % and 2 runs without the slide.
 2. On the first set, the best hypotheses get short fits (:data:`.schedule.QUICK`) until the
    budget left is what a full fit takes or one of them is ``confident`` (the session's
    ``lost_below``), and the most confident of them gets the full schedule. (Stopping there
@@ -94,7 +94,8 @@ class Acquisition:
 
     ``score(fit, observations)`` ranks fits (higher is better: the session's confidence).
     ``start`` (P,), optional, is the first carried candidate (e.g. the last estimate before
-    the hand was lost). A short fit scoring ``confident`` ends the first set's exploring.
+    the hand was lost). Without one, a short fit scoring ``confident`` ends the first
+    set's exploring.
     """
 
     def __init__(self, tracker: HandTracker, init: InitConfig, config: AcquisitionConfig,

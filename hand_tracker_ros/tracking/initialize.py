@@ -8,11 +8,12 @@
    (:class:`.evidence.CoarseMasks`; ``bench/bench_ranking.py``: rendering the 48
    hypotheses took 140-170 ms at 4 x 320x240 and 250-265 ms at 4 x 640x480, the splat 35-48
    ms, with rankings of Spearman correlation 0.97-0.98). The ``slide_best`` best are then
-   slid along the hull's axis by ``slide_mm`` and keep the place of highest IoU. The
-   hull's centroid misses the hand's mostly along that axis: on the first frames of 40
-   synthetic bags (random and pinch, seeds 3540-3559) by a median of 11.4 mm, up to 26.6,
-   and by 24-39 mm on a pinch (seed 3533) whose masks flood two of four cameras, where the
-   unslid search needed 8 sets to find the hand.
+   slid along the hull's axis by ``slide_mm`` and keep the place of highest IoU (48 more
+   splats: ranking a 4 x 320x240 grasp set took a median of 51 ms against 30 unslid). The
+   hull's centroid misses the hand's mostly along that axis: on frames 0 and 30 of 40
+   synthetic bags (random and pinch, seeds 3540-3559; ``bench/bench_hand_region.py``) by a
+   median of 11.4 mm, up to 26.6, and by 24-39 mm on a pinch (seed 3533) whose masks flood
+   two of four cameras, where the unslid search needed 8 sets to find the hand.
 3. **Refine**: the ``keep`` best hypotheses get ``quick_passes`` short fits (one round,
    :data:`.schedule.QUICK`) and are ranked by the caller's ``score`` (the tracking session
    passes its confidence, :mod:`.evidence`; the default is the silhouette IoU); the
@@ -64,12 +65,13 @@ class InitConfig:
     refine_best: int = param(3, 'hypotheses (best score after the short fits) refined',
                              low=1, high=50)
     refine_frames: int = param(6, 'full fits per refined hypothesis', low=1, high=50)
-    slide_best: int = param(12, 'hypotheses (best silhouette IoU first) also tried at the '
-                            'offsets slide_mm along the visual hull\'s longest axis (the '
-                            'live search does not)', low=0, high=500)
+    slide_best: int = param(12, 'hypotheses (best silhouette IoU first) each moved to the '
+                            'offset of slide_mm along the visual hull\'s longest axis where '
+                            'its IoU is highest (the live search does not)', low=0, high=500)
     slide_mm: tuple[float, ...] = param((-20.0, -10.0, 10.0, 20.0), 'offsets along the '
-                                        'visual hull\'s longest axis (module docstring)',
-                                        unit='mm')
+                                        'visual hull\'s longest axis, whose sign is '
+                                        'arbitrary: give them in +- pairs (module '
+                                        'docstring)', unit='mm')
     min_mask_px: int = param(50, 'masks smaller than this are ignored', unit='px', low=1)
     finger_search: bool = param(True, 'the one-shot search then tries every long finger in '
                                 'other states, one at a time (tracking/fingers.py; the live '
@@ -88,16 +90,18 @@ def _view_centre(cameras: Sequence[Camera]) -> tuple[FloatArray, float]:
     return centre, float(np.median([np.linalg.norm(c.center_world - centre) for c in cameras]))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class HandRegion:
     """Where the visual hull puts the hand."""
 
     centre_m: FloatArray   # (3,) m, the centroid of the hull's largest connected part
-    axis: FloatArray       # (3,) unit, that part's longest principal axis (sign arbitrary)
+    axis: FloatArray       # (3,) unit, that part's longest principal axis (sign arbitrary;
+    #                        any unit vector when the part is round or one voxel)
 
 
 class VisualHull:
-    """Where the hand is: the centre (m) of the largest region every camera sees as foreground.
+    """Where the hand is: the centre (m) and the longest axis of the largest region every
+    camera sees as foreground (:class:`HandRegion`).
 
     A voxel grid (``voxel_m``) around the point the cameras look at, half as wide as their
     median distance to it, is carved: a voxel stays when it projects onto foreground in every
@@ -121,11 +125,6 @@ class VisualHull:
         # camera indices -> grid centre (3,) m, half width n (voxels), and per camera the
         # full-image flat pixel (N,) int32 of every voxel, W * H where it projects outside.
         self._grids: dict[tuple[int, ...], tuple[FloatArray, int, list[np.ndarray]]] = {}
-
-    def centre(self, masks: Sequence[np.ndarray], min_px: int,
-               rois_px: Sequence[tuple[int, int, int, int]] | None = None) -> FloatArray:
-        """The hand centre (3,) m from one bool mask per camera (:meth:`region`)."""
-        return self.region(masks, min_px, rois_px).centre_m
 
     def region(self, masks: Sequence[np.ndarray], min_px: int,
                rois_px: Sequence[tuple[int, int, int, int]] | None = None) -> HandRegion:
@@ -227,7 +226,7 @@ def ranked_hypotheses(tracker: HandTracker, observations: FrameObservations,
     """The hypotheses of :func:`hypotheses` at the region's centre, best coarse silhouette
     IoU first (ties in grid order); the ``slide_best`` best each moved to the offset of
     ``slide_mm`` along the region's axis (or none) where their IoU is highest, and ranked
-    with that IoU."""
+    with that IoU (ties to the later offset)."""
     masks = CoarseMasks(observations, tracker.cameras)
     offsets_m = 1e-3 * np.asarray(config.slide_mm, np.float64)[:, None] * region.axis  # (S, 3)
     scored = []
@@ -241,7 +240,7 @@ def ranked_hypotheses(tracker: HandTracker, observations: FrameObservations,
         if best > iou:
             moved = theta.copy()
             moved[Layout.translation] += offsets_m[i]
-            scored[j] = (best, k, moved, vertices_m)
+            scored[j] = (best, k, moved, vertices_m + offsets_m[i])
     scored.sort(key=lambda item: (-item[0], item[1]))
     return [theta for _, _, theta, _ in scored]
 

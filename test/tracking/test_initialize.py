@@ -34,7 +34,11 @@ def test_the_visual_hull_places_a_ball_and_ignores_clutter_in_one_camera() -> No
     rig = CameraRig.ring(3, 160, 120)
     centre = np.array([0.02, -0.01, 0.03])
     masks = _ball_masks(rig, centre)
-    locate = VisualHull(rig.cameras).centre
+    hull = VisualHull(rig.cameras)
+
+    def locate(masks, min_px):
+        return hull.region(masks, min_px).centre_m
+
     np.testing.assert_allclose(locate(masks, 10), centre, atol=3e-3)
     cluttered = [masks[0] | _ball_masks(rig, np.array([-0.1, 0.12, -0.05]), 15.0)[0],
                  *masks[1:]]
@@ -62,8 +66,9 @@ def test_a_kept_visual_hull_locates_as_a_new_one_whichever_cameras_see_foregroun
     for centre, seeing in cases:
         masks = [m if c in seeing else m & False
                  for c, m in enumerate(_ball_masks(rig, np.array(centre)))]
-        found = hull.centre(masks, 10)
-        np.testing.assert_array_equal(found, VisualHull(rig.cameras).centre(masks, 10))
+        found = hull.region(masks, 10).centre_m
+        fresh = VisualHull(rig.cameras).region(masks, 10).centre_m
+        np.testing.assert_array_equal(found, fresh)
         np.testing.assert_allclose(found, centre, atol=3e-3)
 
 
@@ -78,10 +83,11 @@ def test_masks_of_a_region_of_interest_are_placed_in_the_image() -> None:
         box = (int(cols.min()) - 5, int(rows.min()) - 7, int(cols.max()) + 9, int(rows.max()) + 4)
         boxes.append(box)
         crops.append(mask[box[1]:box[3], box[0]:box[2]])
-    np.testing.assert_array_equal(hull.centre(crops, 10, boxes), hull.centre(masks, 10))
+    np.testing.assert_array_equal(hull.region(crops, 10, boxes).centre_m,
+                                  hull.region(masks, 10).centre_m)
     # The same crops read as if they covered the image's top-left corner: elsewhere.
     with pytest.raises(HandTrackerError, match='do not intersect'):
-        hull.centre([np.pad(c, ((0, 120 - c.shape[0]), (0, 160 - c.shape[1])))
+        hull.region([np.pad(c, ((0, 120 - c.shape[0]), (0, 160 - c.shape[1])))
                      for c in crops], 10)
 
 
