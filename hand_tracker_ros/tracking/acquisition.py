@@ -20,12 +20,12 @@ and the best fit so far follows the hand from set to set:
    tracked a mean of 82, 84 and 85 % of the sets against 82, 78 and 78 % without the stop,
    and with ``--slowdown 1.5`` 46 and 52 % against 49 and 45 %, within the loop's
    run-to-run spread; a first set of 300 instead of 60 ms, exploring more, tracked 59 %
-   against 85 %.) On every later set the best fit so far, moved by the
-   displacement of the hull centre since its set, gets the full schedule first (while it is
-   near the hand, that is tracking it), and untried hypotheses, centred on this set's hull
-   centre, get short fits with the rest of the budget: at least one per set, so that a
-   carried fit stuck in a wrong basin does not stop the search. Once every hypothesis was
-   tried they are ranked again.
+   against 85 %.) On every later set the best fit so far, moved by the displacement of the
+   hull centre since its set, gets the full schedule first (while it is near the hand, that
+   is tracking it), and untried hypotheses, centred on this set's hull centre, get short
+   fits with the rest of the budget: at least one per set, so that a carried fit stuck in a
+   wrong basin does not stop the search. Once every hypothesis was tried they are ranked
+   again.
 3. The full fit is the set's estimate. When its confidence reaches the session's
    ``lost_below`` the hand is acquired and tracking goes on from it; otherwise the set is
    LOST, and the more confident of the full fit and the best short fit is carried to the
