@@ -9,7 +9,7 @@
    hypotheses took 140-170 ms at 4 x 320x240 and 250-265 ms at 4 x 640x480, the splat 35-48
    ms, with rankings of Spearman correlation 0.97-0.98). The ``slide_best`` best are then
    slid along the hull's axis by ``slide_mm`` and keep the place of highest IoU (48 more
-   splats: ranking a 4 x 320x240 grasp set took a median of 51 ms against 30 unslid). The
+   splats: ranking a 4 x 320x240 set took a median of 48 ms against 28 unslid). The
    hull's centroid misses the hand's mostly along that axis: on frames 0 and 30 of 40
    synthetic bags (random and pinch, seeds 3540-3559; ``bench/bench_hand_region.py``) by a
    median of 11.4 mm, up to 26.6, and by 24-39 mm on a pinch (seed 3533) whose masks flood
