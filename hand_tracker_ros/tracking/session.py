@@ -23,12 +23,12 @@ tracked offline and the same bag played through the graph follow the same rules:
    :func:`.hypotheses.swapped_fingers`); the most confident of them gets the full schedule
    and replaces the fit if it is more confident. This costs time only on doubtful frames.
 4b. **Unpin fingers** (``pinned``) when a long finger of the kept fit presses against MCP
-   hyperextension or full PIP or DIP flexion, where wrong fits end and no motion's ground
-   truth goes (:mod:`.fingers`, "Pinned fingers"): the frame is fitted again with each such
-   finger in other states and as in the last trusted estimate with none pinned, chosen as
-   in step 4, whatever the confidence (such fits score 0.95-0.99). Live, only every
-   ``pinned.live_every``-th set a finger stays pinned, within what is left of the set's
-   step budget (step 4 shares it).
+   hyperextension or full PIP or DIP flexion, or the thumb against any of its limits, where
+   wrong fits end and no motion's ground truth goes (:mod:`.fingers`, "Pinned fingers"):
+   the frame is fitted again with each such finger in other states and as in the last
+   trusted estimate with none pinned, chosen as in step 4, whatever the confidence (such
+   fits score 0.95-0.99). Live, only every ``pinned.live_every``-th set a finger stays
+   pinned, within what is left of the set's step budget (step 4 shares it).
 5. **Search globally** when ``failure.reinit_after`` consecutive frames stayed below
    ``failure.lost_below``: the search runs on the current frame (with a deadline: the live
    search starts from the last fit, on the next set); a session that may not search resets
@@ -98,7 +98,8 @@ class PinnedConfig:
     elsewhere."""
 
     enabled: bool = param(True, 'refit a fit whose long finger presses against MCP '
-                          'hyperextension or full PIP or DIP flexion')
+                          'hyperextension or full PIP or DIP flexion, or whose thumb '
+                          'presses against a limit')
     margin_deg: float = param(2.0, 'a flexion this close to such a limit presses against it',
                               unit='deg', low=0.0, high=30.0)
     live_every: int = param(3, 'live: refit only every this many sets a finger stays '

@@ -13,6 +13,7 @@ from hand_tracker_ros.tracking import initialize as initialize_module
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
 from hand_tracker_ros.tracking.fingers import (
     FINGER_STATES,
+    THUMB_JOINTS,
     finger_states,
     pinned_fingers,
     search_fingers,
@@ -35,6 +36,21 @@ def test_a_finger_state_sets_that_finger_and_nothing_else(hand_model) -> None:
             degrees = FINGER_STATES[name.removeprefix(f'{finger}_')]
             mcp, pip, dip = (np.deg2rad(degrees[f'{finger}_{j}']) for j in FLEXIONS)
             np.testing.assert_allclose(start[own], [mcp, 0.0, pip, dip])   # Layout order
+
+
+def test_a_thumb_state_sets_the_thumbs_four_dof_and_nothing_else(hand_model) -> None:
+    theta = hand_model.neutral_theta((0.01, -0.05, 0.02))
+    states = finger_states(theta, 'thumb', hand_model)
+    assert set(states) == {f'thumb_{name}' for name in FINGER_STATES}
+    own = np.zeros(Layout.P, bool)
+    own[Layout.thumb] = True
+    for name, start in states.items():
+        np.testing.assert_array_equal(start[~own], theta[~own])
+        degrees = FINGER_STATES[name.removeprefix('thumb_')]
+        expected = np.clip(np.deg2rad([degrees[joint] for joint in THUMB_JOINTS]),
+                           hand_model.lower[own], hand_model.upper[own])
+        np.testing.assert_allclose(start[own], expected)
+    assert not np.allclose(states['thumb_extended'][own], states['thumb_curled'][own])
 
 
 def test_a_finger_is_pinned_at_mcp_hyperextension_or_full_pip_or_dip_flexion(hand_model
@@ -61,6 +77,23 @@ def test_a_finger_is_pinned_at_mcp_hyperextension_or_full_pip_or_dip_flexion(han
     assert pinned_fingers(both, hand_model, margin) == ['index', 'middle']
 
 
+def test_the_thumb_is_pinned_at_any_of_its_limits_and_comes_last(hand_model) -> None:
+    theta = hand_model.neutral_theta((0.0, 0.0, 0.0))
+    margin = np.deg2rad(2.0)
+    lower, upper = hand_model.lower, hand_model.upper
+    for joint in THUMB_JOINTS:
+        k = Layout.index(joint)
+        for limit, sign in ((lower, 1.0), (upper, -1.0)):
+            for offset_deg, pinned in ((1.9, True), (2.1, False)):
+                at = theta.copy()
+                at[k] = limit[k] + sign * np.deg2rad(offset_deg)
+                assert pinned_fingers(at, hand_model, margin) == (['thumb'] if pinned else [])
+    both = theta.copy()
+    both[Layout.index('thumb_ip_flex')] = upper[Layout.index('thumb_ip_flex')]
+    both[Layout.index('ring_pip_flex')] = upper[Layout.index('ring_pip_flex')]
+    assert pinned_fingers(both, hand_model, margin) == ['ring', 'thumb']
+
+
 def test_unpinning_starts_move_only_the_pinned_fingers(hand_model) -> None:
     theta = hand_model.neutral_theta((0.01, -0.05, 0.02))
     trusted = theta + 0.05
@@ -73,6 +106,10 @@ def test_unpinning_starts_move_only_the_pinned_fingers(hand_model) -> None:
     np.testing.assert_array_equal(starts['ring_trusted'][own], trusted[own])
     assert set(unpinning_starts(theta, ['index', 'ring'], hand_model, None)) == {
         f'{f}_{s}' for f in ('index', 'ring') for s in FINGER_STATES}
+    thumb = unpinning_starts(theta, ['thumb'], hand_model, trusted)
+    np.testing.assert_array_equal(thumb['thumb_trusted'][Layout.thumb], trusted[Layout.thumb])
+    np.testing.assert_array_equal(thumb['thumb_trusted'][Layout.fingers],
+                                  theta[Layout.fingers])
 
 
 @pytest.mark.slow

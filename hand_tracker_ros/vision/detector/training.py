@@ -241,6 +241,19 @@ times are ONNX Runtime, one thread, 320 x 240, on the shared 2-core machine):
   0.920 / 0.817 and 0.874 / 0.841), 4.18 against 1.80 ms per 320 x 240 image; the mirror up
   and down as well gave no more (0.937 / 0.809, 8.45 ms). Real 14 / 20 (5, 3, 2, 4) against
   16: not kept.
+- twenty-second session (2026-11-27), the same measures:
+  - inference only, on seed 1 at 0.45 and enlarged 1.4x and 2.8x: a half-octave pyramid
+    (levels at :math:`2^{-k/2}` over the octave pyramid's range, the strongest kept as
+    now) 0.906 / 0.820 at 1x (the shipped pyramid 0.920 / 0.817), 0.899 / 0.839 and
+    0.889 / 0.834 enlarged (0.901 / 0.828 and 0.888 / 0.816), 3.0 against 1.8 ms; with the
+    8 px mean-colour padding as well 0.891 / 0.820 at 1x. Real 14 / 20 (3, 4, 2, 5), with
+    the padding 16 (5, 3, 3, 5): not kept;
+  - the plain backgrounds (step 2 of :mod:`.augment`) coloured like the hand in half of
+    them (the hand pixels' mean colour times U(0.8, 1.25), +-8 per channel), because that
+    photo's skin and ceiling have about the same luma; a fine-tune as the shipped one's
+    (15 epochs, peak lr 1e-3, 2 threads, 12 min): seed 1 0.905 / 0.815, real 16 / 20 (5,
+    4, 2, 5), the middle finger's peak on ``Back_Projection_Theory0.jpg`` 0.25 (shipped
+    0.41): not kept.
 """
 from __future__ import annotations
 
