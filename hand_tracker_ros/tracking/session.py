@@ -100,7 +100,7 @@ class PinnedConfig:
     enabled: bool = param(True, 'refit a fit whose long finger presses against MCP '
                           'hyperextension or full PIP or DIP flexion, or whose thumb '
                           'presses against a limit')
-    margin_deg: float = param(2.0, 'a flexion this close to such a limit presses against it',
+    margin_deg: float = param(2.0, 'a joint this close to such a limit presses against it',
                               unit='deg', low=0.0, high=30.0)
     live_every: int = param(3, 'live: refit only every this many sets a finger stays '
                             'pinned (each refit holds its set up)', low=1, high=1000)
@@ -389,7 +389,8 @@ class TrackingSession:
         return fit
 
     def _pinned(self, theta: FloatArray) -> list[str]:
-        """The long fingers of ``theta`` (P,) step 4b refits (none when it is off)."""
+        """The fingers (the thumb included) of ``theta`` (P,) step 4b refits (none when it
+        is off)."""
         if not self.config.pinned.enabled:
             return []
         return pinned_fingers(theta, self.tracker.model,

@@ -2,6 +2,8 @@
 one-shot search ending with it."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -9,11 +11,11 @@ from hand_tracker_ros.core.frames import FrameSet
 from hand_tracker_ros.model.layout import FINGERS, FLEXIONS, Layout
 from hand_tracker_ros.pipeline.offline import OfflinePipeline, PipelineConfig
 from hand_tracker_ros.synthetic.sequence import SynthConfig, SyntheticSequence
+from hand_tracker_ros.tracking import fingers as fingers_module
 from hand_tracker_ros.tracking import initialize as initialize_module
 from hand_tracker_ros.tracking.evidence import EvidenceConfig, confidence, measure
 from hand_tracker_ros.tracking.fingers import (
     FINGER_STATES,
-    THUMB_JOINTS,
     finger_states,
     pinned_fingers,
     search_fingers,
@@ -21,6 +23,8 @@ from hand_tracker_ros.tracking.fingers import (
     unpinning_starts,
 )
 from hand_tracker_ros.tracking.initialize import InitConfig
+
+THUMB_JOINTS = Layout.names[Layout.thumb]
 
 
 def test_a_finger_state_sets_that_finger_and_nothing_else(hand_model) -> None:
@@ -34,7 +38,7 @@ def test_a_finger_state_sets_that_finger_and_nothing_else(hand_model) -> None:
         for name, start in states.items():
             np.testing.assert_array_equal(start[~own], theta[~own])
             degrees = FINGER_STATES[name.removeprefix(f'{finger}_')]
-            mcp, pip, dip = (np.deg2rad(degrees[f'{finger}_{j}']) for j in FLEXIONS)
+            mcp, pip, dip = (np.deg2rad(degrees.get(f'{finger}_{j}', 0.0)) for j in FLEXIONS)
             np.testing.assert_allclose(start[own], [mcp, 0.0, pip, dip])   # Layout order
 
 
@@ -47,7 +51,7 @@ def test_a_thumb_state_sets_the_thumbs_four_dof_and_nothing_else(hand_model) -> 
     for name, start in states.items():
         np.testing.assert_array_equal(start[~own], theta[~own])
         degrees = FINGER_STATES[name.removeprefix('thumb_')]
-        expected = np.clip(np.deg2rad([degrees[joint] for joint in THUMB_JOINTS]),
+        expected = np.clip(np.deg2rad([degrees.get(joint, 0.0) for joint in THUMB_JOINTS]),
                            hand_model.lower[own], hand_model.upper[own])
         np.testing.assert_allclose(start[own], expected)
     assert not np.allclose(states['thumb_extended'][own], states['thumb_curled'][own])
@@ -110,6 +114,21 @@ def test_unpinning_starts_move_only_the_pinned_fingers(hand_model) -> None:
     np.testing.assert_array_equal(thumb['thumb_trusted'][Layout.thumb], trusted[Layout.thumb])
     np.testing.assert_array_equal(thumb['thumb_trusted'][Layout.fingers],
                                   theta[Layout.fingers])
+
+
+def test_the_finger_search_leaves_the_thumb_as_it_is(hand_model, monkeypatch) -> None:
+    start = hand_model.neutral_theta((0.01, -0.05, 0.02))
+    tried = []
+
+    def record(tracker, observations, theta):
+        tried.append(np.array(theta))
+        return SimpleNamespace(theta=np.array(theta))
+
+    monkeypatch.setattr(fingers_module, 'short_fit', record)
+    search_fingers(SimpleNamespace(model=hand_model), None, (0.5, start), lambda fit: 0.0)
+    assert len(tried) == len(FINGERS) * len(FINGER_STATES)
+    for theta in tried:
+        np.testing.assert_array_equal(theta[Layout.thumb], start[Layout.thumb])
 
 
 @pytest.mark.slow
