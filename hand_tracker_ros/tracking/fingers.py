@@ -81,12 +81,12 @@ those sequences went from 11.30 to 6.12 mm (seed 3569, whose thumb was pinned fr
 first set on), 5.82 to 5.27 and 7.67 to 7.76 (clutter 40), and stayed within 0.01 mm on
 the four others. Held out: ten bags (random 3591-3594, 3599 and 3600, 150 frames; grasp
 3595, pinch 3596, fist 3597, tapping 3598, 90 frames) stayed within 0.06 mm but for random
-3599 (2.44 to 1.61 mm); with 2 cameras (robustness suite, seeds 3584, 3585 and 3601-3606)
-the mean went from 7.11 to 6.89 mm, lower on six seeds and higher on two (3602 5.31 to
-7.68, 3605 5.15 to 6.66; not examined frame by frame). In the simulated live loop
-(``bench/simulate_live.py --frames 120``, the old and new code in alternation, two runs
-each on seeds 3607-3614 and on 3615-3622) the new code tracked 78 and 75 % of the sets
-against 83 and 86 %, and 87 and 89 % against 92 and 91 %; each time one seed collapsed
+3599 (2.44 to 1.61 mm); with 2 cameras (robustness suite, seeds 3584, 3585, 3601-3606,
+3623 and 3624) the mean went from 7.12 to 6.57 mm, lower on eight seeds and higher on two
+(3602 5.31 to 7.68, 3605 5.15 to 6.66; not examined frame by frame). In the simulated
+live loop (``bench/simulate_live.py --frames 120``, the old and new code in alternation,
+two runs each on seeds 3607-3614 and on 3615-3622) the new code tracked 78 and 75 % of
+the sets against 83 and 86 %, and 87 and 89 % against 92 and 91 %; each time one seed collapsed
 (3611, 3618), which run alone in three alternating pairs tracked 87, 87, 87 % against 87,
 60, 87 % (3611) and 58, 47, 68 % against 66, 54, 53 % (3618): within the loop's spread, but
 a live cost of a few points is not excluded. A real thumb can reach its limits (IP
