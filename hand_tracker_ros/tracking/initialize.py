@@ -161,7 +161,8 @@ class VisualHull:
         ix, iy, iz = np.unravel_index(np.flatnonzero(labels == largest), hull.shape)
         voxels_m = np.stack([axis[ix], axis[iy], axis[iz]], axis=-1) + centre   # (N, 3)
         mean = voxels_m.mean(axis=0)
-        spread = (voxels_m - mean).T @ (voxels_m - mean)                       # (3, 3)
+        centred = voxels_m - mean
+        spread = centred.T @ centred                                           # (3, 3)
         return HandRegion(mean, np.linalg.eigh(spread)[1][:, -1])
 
     def locate(self, observations: FrameObservations, min_px: int) -> HandRegion:
